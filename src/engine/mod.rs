@@ -1,0 +1,1 @@
+//! The face engine: expression → deformed mesh → pixels.

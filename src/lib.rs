@@ -1,0 +1,11 @@
+//! facslab: FACS-controlled facial-expression stimuli, the studies that validate them, and the
+//! validation report.
+//!
+//! The modules follow the pipeline (see `ARCHITECTURE.md`):
+//! [`facs`] (catalog and notation) → [`engine`] (expression → pixels) → … → [`analysis`]
+//! (responses + ground truth → statistics). [`cli`] wires them to the command line.
+
+pub mod analysis;
+pub mod cli;
+pub mod engine;
+pub mod facs;

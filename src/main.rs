@@ -1,0 +1,7 @@
+//! The `facslab` binary: parses the command line and hands it to [`facslab::cli::run`].
+
+use std::process::ExitCode;
+
+fn main() -> ExitCode {
+    facslab::cli::run()
+}
