@@ -193,15 +193,11 @@ fn parse_obj(text: &str) -> Result<(Vec<Vec3>, Vec<PartMesh>), AssetError> {
                 let xyz: Vec<f32> = fields.map(str::parse).collect::<Result<_, _>>().map_err(|e| malformed(format!("{e}")))?;
                 let [x, y, z] = xyz[..] else { return Err(malformed("a vertex needs three coordinates".into())) };
                 positions.push(Vec3::new(x, y, z));
-                if let Some(part) = parts.last_mut() {
-                    part.vertices.end = positions.len() as u32;
-                }
             }
             Some("o") => {
                 let name = fields.next().unwrap_or_default();
                 let part = Part::from_obj_name(name).ok_or_else(|| malformed(format!("unknown part {name}")))?;
-                let at = positions.len() as u32;
-                parts.push(PartMesh { part, vertices: at..at, triangles: Vec::new() });
+                parts.push(PartMesh { part, vertices: 0..0, triangles: Vec::new() });
             }
             Some("f") => {
                 let corners: Vec<u32> = fields
@@ -214,6 +210,13 @@ fn parse_obj(text: &str) -> Result<(Vec<Vec3>, Vec<PartMesh>), AssetError> {
             }
             _ => {}
         }
+    }
+    // Each part's vertices are one contiguous block: the span of its triangles' corners.
+    for part in &mut parts {
+        let corners = part.triangles.iter().flatten();
+        let start = corners.clone().min().copied().unwrap_or(0);
+        let end = corners.max().map_or(0, |m| m + 1);
+        part.vertices = start..end;
     }
     parts.sort_by_key(|p| p.part);
     if parts.iter().map(|p| p.part).ne(Part::ALL) {
@@ -234,6 +237,8 @@ mod tests {
             assert!(!model.part(part).triangles.is_empty(), "{part:?} has no triangles");
         }
         let n = model.rest.len() as u32;
+        assert_eq!(model.part(Part::Skin).vertices, 0..4284);
+        assert_eq!(model.part(Part::LashesLower).vertices.end, n);
         assert!(model.parts.iter().flat_map(|p| p.triangles.iter().flatten()).all(|&i| i < n));
     }
 

@@ -121,6 +121,8 @@ struct RawChannel {
 #[derive(Debug, Clone)]
 pub struct AuBasis {
     rigs: BTreeMap<AuCode, AuRig>,
+    /// Channels that belong to one side of the face (declared with `side`).
+    one_sided: std::collections::BTreeSet<Channel>,
 }
 
 impl AuBasis {
@@ -135,17 +137,19 @@ impl AuBasis {
     pub fn from_toml(text: &str) -> Result<AuBasis, RigError> {
         let file: BasisFile = toml::from_str(text)?;
         let mut rigs = BTreeMap::new();
+        let mut one_sided = std::collections::BTreeSet::new();
         for raw in file.au {
             let channels = raw
                 .channels
                 .into_iter()
                 .map(|c| Ok(ChannelUse { channel: Channel::parse(&c.channel)?, side: c.side, max: c.max }))
-                .collect::<Result<_, RigError>>()?;
+                .collect::<Result<Vec<_>, RigError>>()?;
+            one_sided.extend(channels.iter().filter(|c| c.side.is_some()).map(|c| c.channel.clone()));
             if rigs.insert(raw.code, AuRig { direction: raw.direction, channels }).is_some() {
                 return Err(RigError::Duplicate(raw.code));
             }
         }
-        Ok(AuBasis { rigs })
+        Ok(AuBasis { rigs, one_sided })
     }
 
     pub fn get(&self, code: AuCode) -> Option<&AuRig> {
@@ -170,7 +174,7 @@ impl AuBasis {
             }
         }
         let values = sums.into_iter().map(|(key, (sum, limit))| (key, sum.clamp(-limit, limit))).collect();
-        Ok(ChannelValues { values })
+        Ok(ChannelValues { values, one_sided: self.one_sided.clone() })
     }
 }
 
@@ -202,6 +206,7 @@ fn driven(rig: &AuRig, laterality: Laterality) -> Vec<(&ChannelUse, Side)> {
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct ChannelValues {
     values: BTreeMap<(Channel, Side), f32>,
+    one_sided: std::collections::BTreeSet<Channel>,
 }
 
 impl ChannelValues {
@@ -212,6 +217,12 @@ impl ChannelValues {
     /// A rigid channel's value: the mean of both sides (a one-sided AU16 opens the jaw half).
     pub fn rigid(&self, channel: &Channel) -> f32 {
         (self.get(channel, Side::Left) + self.get(channel, Side::Right)) / 2.0
+    }
+
+    /// Whether `channel` belongs to one side of the face (an ARKit Left/Right target), so that
+    /// it applies unmasked; symmetric channels are blended across the midline by side.
+    pub fn is_one_sided(&self, channel: &Channel) -> bool {
+        self.one_sided.contains(channel)
     }
 
     /// Every non-rigid channel with its (left, right) values, in a fixed order.

@@ -1,0 +1,300 @@
+//! Posing: identity shape + channel values → the deformed head.
+//!
+//! In: the [`FaceModel`], an [`Identity`], and [`ChannelValues`] from the AU basis. Out: a
+//! [`Posed`] head: vertex positions and normals, both eyes' centre and gaze, and the shader's
+//! appearance weights. Order of operations: identity targets, AU targets (symmetric ones blended
+//! across the midline by side), jaw rotation, eye rotation, head rotation. AU targets never move
+//! the eyeballs (those turn rigidly with `eyes.*`).
+//!
+//! Invariant: pure function of its inputs; no I/O beyond the embedded model's first use.
+
+use std::collections::BTreeMap;
+use std::sync::{Arc, Mutex, OnceLock};
+
+use glam::{Mat3, Vec3};
+
+use super::asset::{AssetError, FaceModel, Part};
+use super::identity::Identity;
+use super::rig::{Channel, ChannelValues, Side};
+
+/// Eyeball centres of the base mesh (least-squares sphere fit, `stimuli/face/README.md`).
+const EYE_CENTRE_LEFT: Vec3 = Vec3::new(0.30777, 7.28414, 1.24535);
+pub const EYE_RADIUS: f32 = 0.14954;
+/// The jaw's hinge (in front of the ears) and the head's pivot (top of the neck), decimetres.
+const JAW_PIVOT: Vec3 = Vec3::new(0.0, 7.0, 0.55);
+const HEAD_PIVOT: Vec3 = Vec3::new(0.0, 6.55, 0.15);
+/// The neck blends from still (below) to moving with the head (above), by rest height.
+const NECK_BLEND: (f32, f32) = (5.95, 6.6);
+/// Width of the midline blend between left and right halves, decimetres.
+const MIDLINE_BLEND: f32 = 0.06;
+
+/// One eye after posing.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EyeFrame {
+    pub centre: Vec3,
+    /// Unit vector the pupil points along.
+    pub gaze: Vec3,
+    /// Unit vector toward the top of the iris.
+    pub up: Vec3,
+}
+
+/// The deformed head, ready to rasterise and shade.
+#[derive(Debug, Clone)]
+pub struct Posed {
+    pub positions: Vec<Vec3>,
+    pub normals: Vec<Vec3>,
+    /// The identity's neutral positions (wrinkle shading compares against them).
+    pub neutral: Arc<Vec<Vec3>>,
+    pub eyes: [EyeFrame; 2],
+    /// Appearance channels (`shade:NAME`) as (left, right) weights.
+    pub appearance: BTreeMap<String, (f32, f32)>,
+}
+
+/// The per-identity data that does not change between frames.
+pub struct PreparedIdentity {
+    pub identity: Identity,
+    pub neutral: Arc<Vec<Vec3>>,
+    eye_centres: [Vec3; 2],
+}
+
+impl PreparedIdentity {
+    pub fn new(model: &FaceModel, identity: &Identity) -> Result<PreparedIdentity, AssetError> {
+        let mut neutral = model.rest.clone();
+        for (name, weight) in identity.shape_weights() {
+            if !model.has_target(&name) {
+                // Seven adult macro combinations are empty on the head and have no file.
+                continue;
+            }
+            add_target(&mut neutral, &*model.target(&name)?, |_| weight, |_| true);
+        }
+        let eye_centres = [Part::EyeLeft, Part::EyeRight].map(|part| {
+            let range = model.part(part).vertices.clone();
+            let shift: Vec3 = range.clone().map(|i| neutral[i as usize] - model.rest[i as usize]).sum::<Vec3>() / range.len() as f32;
+            let base = if part == Part::EyeLeft { EYE_CENTRE_LEFT } else { EYE_CENTRE_LEFT * Vec3::new(-1.0, 1.0, 1.0) };
+            base + shift
+        });
+        Ok(PreparedIdentity { identity: identity.clone(), neutral: Arc::new(neutral), eye_centres })
+    }
+
+    /// The prepared identity for `identity`, cached by id for the life of the process.
+    pub fn cached(model: &FaceModel, identity: &Identity) -> Result<Arc<PreparedIdentity>, AssetError> {
+        static CACHE: OnceLock<Mutex<BTreeMap<String, Arc<PreparedIdentity>>>> = OnceLock::new();
+        let cache = CACHE.get_or_init(Default::default);
+        if let Some(found) = cache.lock().unwrap_or_else(|p| p.into_inner()).get(&identity.id) {
+            return Ok(Arc::clone(found));
+        }
+        let prepared = Arc::new(PreparedIdentity::new(model, identity)?);
+        cache.lock().unwrap_or_else(|p| p.into_inner()).insert(identity.id.clone(), Arc::clone(&prepared));
+        Ok(prepared)
+    }
+}
+
+fn add_target(positions: &mut [Vec3], target: &super::asset::Target, weight: impl Fn(usize) -> f32, keep: impl Fn(usize) -> bool) {
+    for (&i, &delta) in target.indices.iter().zip(&target.deltas) {
+        let i = i as usize;
+        if keep(i) {
+            positions[i] += delta * weight(i);
+        }
+    }
+}
+
+fn smoothstep(edge0: f32, edge1: f32, x: f32) -> f32 {
+    let t = ((x - edge0) / (edge1 - edge0)).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
+/// Poses `prepared` with `values`.
+pub fn pose(model: &FaceModel, prepared: &PreparedIdentity, values: &ChannelValues) -> Result<Posed, AssetError> {
+    let neutral = &prepared.neutral;
+    let mut positions: Vec<Vec3> = neutral.as_ref().clone();
+    let eye_vertices = model.part(Part::EyeLeft).vertices.start as usize..model.part(Part::EyeRight).vertices.end as usize;
+    let not_eye = |i: usize| !eye_vertices.contains(&i);
+    let mut appearance = BTreeMap::new();
+
+    for (channel, left, right) in values.sided() {
+        match channel {
+            Channel::Target(name) => {
+                let left_of = |i: usize| smoothstep(-MIDLINE_BLEND / 2.0, MIDLINE_BLEND / 2.0, model.rest[i].x);
+                let one_sided = values.is_one_sided(channel);
+                let weight = |i: usize| {
+                    if one_sided || left == right {
+                        left.max(right)
+                    } else {
+                        let l = left_of(i);
+                        left * l + right * (1.0 - l)
+                    }
+                };
+                for (variant, factor) in resolve_variants(name, prepared) {
+                    add_target(&mut positions, &*model.target(&variant)?, |i| weight(i) * factor, not_eye);
+                }
+            }
+            Channel::Shade(name) => {
+                appearance.insert(name.clone(), (left, right));
+            }
+            _ => {}
+        }
+    }
+
+    rotate_jaw(model, &mut positions, values.rigid(&Channel::JawOpen))?;
+    let mut eyes = turn_eyes(model, prepared, &mut positions, values);
+    turn_head(neutral, &mut positions, &mut eyes, values);
+    let normals = vertex_normals(model, &positions);
+    Ok(Posed { positions, normals, neutral: Arc::clone(neutral), eyes, appearance })
+}
+
+/// `{ethnic}` targets resolve to the three ancestry variants, weighted by the identity.
+fn resolve_variants(name: &str, prepared: &PreparedIdentity) -> Vec<(String, f32)> {
+    if !name.contains("{ethnic}") {
+        return vec![(name.to_string(), 1.0)];
+    }
+    prepared
+        .identity
+        .ancestry
+        .named()
+        .into_iter()
+        .filter(|(_, w)| *w > 0.0)
+        .map(|(group, w)| (name.replace("{ethnic}", group), w))
+        .collect()
+}
+
+fn rotate_jaw(model: &FaceModel, positions: &mut [Vec3], degrees: f32) -> Result<(), AssetError> {
+    if degrees == 0.0 {
+        return Ok(());
+    }
+    static JAW: OnceLock<Vec<f32>> = OnceLock::new();
+    let weights = match JAW.get() {
+        Some(w) => w,
+        None => {
+            let w = model.region("bone-jaw")?;
+            JAW.get_or_init(|| w)
+        }
+    };
+    let rotation = Mat3::from_rotation_x(degrees.to_radians());
+    for (p, &w) in positions.iter_mut().zip(weights) {
+        if w > 0.0 {
+            let moved = rotation * (*p - JAW_PIVOT) + JAW_PIVOT;
+            *p = p.lerp(moved, w);
+        }
+    }
+    Ok(())
+}
+
+fn turn_eyes(model: &FaceModel, prepared: &PreparedIdentity, positions: &mut [Vec3], values: &ChannelValues) -> [EyeFrame; 2] {
+    let yaw = values.rigid(&Channel::EyesYaw);
+    let pitch = values.rigid(&Channel::EyesPitch);
+    let converge = values.rigid(&Channel::EyesConverge);
+    [Part::EyeLeft, Part::EyeRight].map(|part| {
+        let index = if part == Part::EyeLeft { 0 } else { 1 };
+        let centre = prepared.eye_centres[index];
+        // The left eye (x > 0) converges by turning toward -x, i.e. to the person's right.
+        let own_yaw = yaw + if part == Part::EyeLeft { -converge } else { converge };
+        let rotation = Mat3::from_rotation_y(own_yaw.to_radians()) * Mat3::from_rotation_x(-pitch.to_radians());
+        for i in model.part(part).vertices.clone() {
+            let p = &mut positions[i as usize];
+            *p = rotation * (*p - centre) + centre;
+        }
+        EyeFrame { centre, gaze: rotation * Vec3::Z, up: rotation * Vec3::Y }
+    })
+}
+
+fn turn_head(neutral: &[Vec3], positions: &mut [Vec3], eyes: &mut [EyeFrame; 2], values: &ChannelValues) {
+    let yaw = values.rigid(&Channel::HeadYaw).to_radians();
+    let pitch = values.rigid(&Channel::HeadPitch).to_radians();
+    let roll = values.rigid(&Channel::HeadRoll).to_radians();
+    let forward = values.rigid(&Channel::HeadForward);
+    if yaw == 0.0 && pitch == 0.0 && roll == 0.0 && forward == 0.0 {
+        return;
+    }
+    let rotation = Mat3::from_rotation_y(yaw) * Mat3::from_rotation_x(pitch) * Mat3::from_rotation_z(-roll);
+    let shift = Vec3::new(0.0, 0.0, forward);
+    let transform = |p: Vec3| rotation * (p - HEAD_PIVOT) + HEAD_PIVOT + shift;
+    for (p, rest) in positions.iter_mut().zip(neutral) {
+        let w = smoothstep(NECK_BLEND.0, NECK_BLEND.1, rest.y);
+        if w > 0.0 {
+            *p = p.lerp(transform(*p), w);
+        }
+    }
+    for eye in eyes.iter_mut() {
+        *eye = EyeFrame { centre: transform(eye.centre), gaze: rotation * eye.gaze, up: rotation * eye.up };
+    }
+}
+
+/// Area-weighted vertex normals over each part's triangles.
+pub fn vertex_normals(model: &FaceModel, positions: &[Vec3]) -> Vec<Vec3> {
+    let mut normals = vec![Vec3::ZERO; positions.len()];
+    for part in &model.parts {
+        for &[a, b, c] in &part.triangles {
+            let (a, b, c) = (a as usize, b as usize, c as usize);
+            let n = (positions[b] - positions[a]).cross(positions[c] - positions[a]);
+            normals[a] += n;
+            normals[b] += n;
+            normals[c] += n;
+        }
+    }
+    normals.iter().map(|n| n.normalize_or(Vec3::Z)).collect()
+}
+
+/// The side a vertex belongs to, by its rest position (the person's left is +x).
+pub fn side_of(rest: Vec3) -> Side {
+    if rest.x >= 0.0 { Side::Left } else { Side::Right }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::engine::identity::IdentityTable;
+    use crate::engine::rig::AuBasis;
+    use crate::facs::Catalog;
+
+    fn posed(expression: &str) -> (Posed, Arc<PreparedIdentity>) {
+        let model = FaceModel::embedded();
+        let identity = IdentityTable::built_in().get("wm1").unwrap();
+        let prepared = PreparedIdentity::cached(model, identity).unwrap();
+        let values = AuBasis::built_in().channel_values(&Catalog::built_in().parse(expression).unwrap()).unwrap();
+        (pose(model, &prepared, &values).unwrap(), prepared)
+    }
+
+    fn displacement(posed: &Posed, prepared: &PreparedIdentity, side: Side) -> f32 {
+        let model = FaceModel::embedded();
+        let skin = model.part(Part::Skin).vertices.clone();
+        skin.filter(|&i| side_of(model.rest[i as usize]) == side && model.rest[i as usize].x.abs() > 0.05)
+            .map(|i| (posed.positions[i as usize] - prepared.neutral[i as usize]).length())
+            .sum()
+    }
+
+    #[test]
+    fn neutral_pose_is_the_identity_shape() {
+        let (posed, prepared) = posed("0");
+        assert_eq!(posed.positions, *prepared.neutral);
+        assert_eq!(posed.eyes[0].gaze, Vec3::Z);
+    }
+
+    #[test]
+    fn a_unilateral_au_moves_its_own_side() {
+        for expression in ["L12", "L1", "L4", "L43"] {
+            let (posed, prepared) = posed(expression);
+            let own = displacement(&posed, &prepared, Side::Left);
+            let other = displacement(&posed, &prepared, Side::Right);
+            assert!(own > 0.0 && other < own / 5.0, "{expression}: own {own}, other {other}");
+        }
+    }
+
+    #[test]
+    fn jaw_drop_lowers_the_chin_and_eyes_turn() {
+        let (open, prepared) = posed("26");
+        let lowest = |p: &[Vec3]| p.iter().map(|v| v.y).fold(f32::INFINITY, f32::min);
+        let model = FaceModel::embedded();
+        let chin: Vec<Vec3> = model.part(Part::TeethLower).vertices.clone().map(|i| open.positions[i as usize]).collect();
+        let rest: Vec<Vec3> = model.part(Part::TeethLower).vertices.clone().map(|i| prepared.neutral[i as usize]).collect();
+        assert!(lowest(&chin) < lowest(&rest) - 0.05);
+        let (look, _) = posed("61");
+        assert!(look.eyes[0].gaze.x > 0.3, "eyes turn to the person's left (+x)");
+    }
+
+    #[test]
+    fn head_turn_moves_the_nose_to_the_persons_left() {
+        let (turned, prepared) = posed("51");
+        let nose = (0..prepared.neutral.len()).max_by(|&a, &b| prepared.neutral[a].z.total_cmp(&prepared.neutral[b].z)).unwrap();
+        assert!(turned.positions[nose].x > prepared.neutral[nose].x + 0.2);
+    }
+}
