@@ -20,10 +20,12 @@ use super::rig::{Channel, ChannelValues, Side};
 /// Eyeball centres of the base mesh (least-squares sphere fit, `stimuli/face/README.md`).
 const EYE_CENTRE_LEFT: Vec3 = Vec3::new(0.30777, 7.28414, 1.24535);
 pub const EYE_RADIUS: f32 = 0.14954;
-/// The jaw's hinge (in front of the ears) and the head's pivot (top of the neck), decimetres.
-const JAW_PIVOT: Vec3 = Vec3::new(0.0, 7.0, 0.55);
-const HEAD_PIVOT: Vec3 = Vec3::new(0.0, 6.55, 0.15);
-/// The neck blends from still (below) to moving with the head (above), by rest height.
+/// The jaw's hinge (in front of the ears) and the head's pivot (top of the neck), relative to
+/// the midpoint of the eyes, decimetres (identities move and resize the head, so pivots follow
+/// the eyes).
+const JAW_PIVOT: Vec3 = Vec3::new(0.0, -0.284, -0.695);
+const HEAD_PIVOT: Vec3 = Vec3::new(0.0, -0.73, -1.095);
+/// The neck blends from still (below) to moving with the head (above), by base-mesh height.
 const NECK_BLEND: (f32, f32) = (5.95, 6.6);
 /// Width of the midline blend between left and right halves, decimetres.
 const MIDLINE_BLEND: f32 = 0.06;
@@ -46,6 +48,9 @@ pub struct Posed {
     /// The identity's neutral positions (wrinkle shading compares against them).
     pub neutral: Arc<Vec<Vec3>>,
     pub eyes: [EyeFrame; 2],
+    /// Midpoint of the eyes in the identity's neutral head: the camera frames the face on it,
+    /// so head movements show as movements in the picture.
+    pub anchor: Vec3,
     /// Appearance channels (`shade:NAME`) as (left, right) weights.
     pub appearance: BTreeMap<String, (f32, f32)>,
 }
@@ -135,11 +140,12 @@ pub fn pose(model: &FaceModel, prepared: &PreparedIdentity, values: &ChannelValu
         }
     }
 
-    rotate_jaw(model, &mut positions, values.rigid(&Channel::JawOpen))?;
+    let anchor = (prepared.eye_centres[0] + prepared.eye_centres[1]) / 2.0;
+    rotate_jaw(model, &mut positions, anchor + JAW_PIVOT, values.rigid(&Channel::JawOpen))?;
     let mut eyes = turn_eyes(model, prepared, &mut positions, values);
-    turn_head(neutral, &mut positions, &mut eyes, values);
+    turn_head(&model.rest, anchor + HEAD_PIVOT, &mut positions, &mut eyes, values);
     let normals = vertex_normals(model, &positions);
-    Ok(Posed { positions, normals, neutral: Arc::clone(neutral), eyes, appearance })
+    Ok(Posed { positions, normals, neutral: Arc::clone(neutral), eyes, anchor, appearance })
 }
 
 /// `{ethnic}` targets resolve to the three ancestry variants, weighted by the identity.
@@ -157,7 +163,7 @@ fn resolve_variants(name: &str, prepared: &PreparedIdentity) -> Vec<(String, f32
         .collect()
 }
 
-fn rotate_jaw(model: &FaceModel, positions: &mut [Vec3], degrees: f32) -> Result<(), AssetError> {
+fn rotate_jaw(model: &FaceModel, positions: &mut [Vec3], pivot: Vec3, degrees: f32) -> Result<(), AssetError> {
     if degrees == 0.0 {
         return Ok(());
     }
@@ -172,7 +178,7 @@ fn rotate_jaw(model: &FaceModel, positions: &mut [Vec3], degrees: f32) -> Result
     let rotation = Mat3::from_rotation_x(degrees.to_radians());
     for (p, &w) in positions.iter_mut().zip(weights) {
         if w > 0.0 {
-            let moved = rotation * (*p - JAW_PIVOT) + JAW_PIVOT;
+            let moved = rotation * (*p - pivot) + pivot;
             *p = p.lerp(moved, w);
         }
     }
@@ -197,7 +203,7 @@ fn turn_eyes(model: &FaceModel, prepared: &PreparedIdentity, positions: &mut [Ve
     })
 }
 
-fn turn_head(neutral: &[Vec3], positions: &mut [Vec3], eyes: &mut [EyeFrame; 2], values: &ChannelValues) {
+fn turn_head(rest: &[Vec3], pivot: Vec3, positions: &mut [Vec3], eyes: &mut [EyeFrame; 2], values: &ChannelValues) {
     let yaw = values.rigid(&Channel::HeadYaw).to_radians();
     let pitch = values.rigid(&Channel::HeadPitch).to_radians();
     let roll = values.rigid(&Channel::HeadRoll).to_radians();
@@ -207,8 +213,8 @@ fn turn_head(neutral: &[Vec3], positions: &mut [Vec3], eyes: &mut [EyeFrame; 2],
     }
     let rotation = Mat3::from_rotation_y(yaw) * Mat3::from_rotation_x(pitch) * Mat3::from_rotation_z(-roll);
     let shift = Vec3::new(0.0, 0.0, forward);
-    let transform = |p: Vec3| rotation * (p - HEAD_PIVOT) + HEAD_PIVOT + shift;
-    for (p, rest) in positions.iter_mut().zip(neutral) {
+    let transform = |p: Vec3| rotation * (p - pivot) + pivot + shift;
+    for (p, rest) in positions.iter_mut().zip(rest) {
         let w = smoothstep(NECK_BLEND.0, NECK_BLEND.1, rest.y);
         if w > 0.0 {
             *p = p.lerp(transform(*p), w);

@@ -1,0 +1,465 @@
+//! Shading: what each visible point of the head looks like.
+//!
+//! In: a [`Fragment`] from the rasteriser (position, normal, which vertices and where between
+//! them), the [`Posed`] head and the [`Identity`]. Out: linear RGB. The face's painted features
+//! (lips, brows, hair, stubble, wrinkles) are functions of the *rest* position of the base mesh,
+//! interpolated across each triangle, so they move with the skin when AUs deform it.
+//!
+//! Appearance channels (`shade:NAME` in the AU basis), each a furrow/bulge height field:
+//! `forehead_inner`, `forehead_outer`, `glabella_vertical`, `glabella_horizontal`, `crows_feet`,
+//! `lower_lid_bulge`, `nose_wrinkles`, `nasolabial`, `dimple`, `chin_boss`, `lip_press_bulge`.
+//!
+//! Invariant: a pure function of its inputs (no randomness but fixed hashes), so the same frame
+//! shades to the same bytes on any thread.
+
+use std::sync::OnceLock;
+
+use glam::{Vec2, Vec3};
+
+use super::asset::{FaceModel, Part};
+use super::identity::Identity;
+use super::pose::Posed;
+use super::raster::{Fragment, Shader};
+
+/// Per-vertex region weights the shader reads.
+struct Regions {
+    lips: Vec<f32>,
+    inside_mouth: Vec<f32>,
+    ears: Vec<f32>,
+}
+
+fn regions(model: &FaceModel) -> &'static Regions {
+    static REGIONS: OnceLock<Regions> = OnceLock::new();
+    REGIONS.get_or_init(|| {
+        let load = |name: &str| model.region(name).expect("the embedded face model has its regions");
+        Regions { lips: load("lips"), inside_mouth: load("inside_mouth"), ears: load("ears") }
+    })
+}
+
+/// A directional light.
+struct Light {
+    direction: Vec3,
+    colour: Vec3,
+}
+
+/// The studio: a warm key light from the viewer's upper left, a cool fill, a rim light and a
+/// sky/ground ambient term.
+fn lights() -> [Light; 3] {
+    [
+        Light { direction: Vec3::new(-0.5, 0.5, 0.71).normalize(), colour: Vec3::new(1.25, 1.17, 1.08) },
+        Light { direction: Vec3::new(0.75, 0.0, 0.65).normalize(), colour: Vec3::new(0.22, 0.24, 0.28) },
+        Light { direction: Vec3::new(0.3, 0.6, -0.75).normalize(), colour: Vec3::new(0.35, 0.35, 0.35) },
+    ]
+}
+
+const SKY: Vec3 = Vec3::new(0.16, 0.17, 0.19);
+const GROUND: Vec3 = Vec3::new(0.07, 0.06, 0.055);
+
+/// Shades the head for one frame.
+pub struct FaceShader<'a> {
+    model: &'a FaceModel,
+    posed: &'a Posed,
+    identity: &'a Identity,
+    regions: &'static Regions,
+    lights: [Light; 3],
+    height: u32,
+}
+
+impl<'a> FaceShader<'a> {
+    pub fn new(model: &'a FaceModel, posed: &'a Posed, identity: &'a Identity, height: u32) -> FaceShader<'a> {
+        FaceShader { model, posed, identity, regions: regions(model), lights: lights(), height }
+    }
+
+    fn interpolate(&self, values: &[f32], f: &Fragment) -> f32 {
+        let [a, b, c] = f.vertex.map(|v| values[v as usize]);
+        a * f.barycentric.x + b * f.barycentric.y + c * f.barycentric.z
+    }
+
+    fn rest(&self, f: &Fragment) -> Vec3 {
+        let [a, b, c] = f.vertex.map(|v| self.model.rest[v as usize]);
+        a * f.barycentric.x + b * f.barycentric.y + c * f.barycentric.z
+    }
+
+    /// How much a point at rest `x` belongs to the person's left side (1) or right side (0).
+    fn left_weight(x: f32) -> f32 {
+        smoothstep(-0.03, 0.03, x)
+    }
+
+    fn appearance(&self, name: &str, x: f32) -> f32 {
+        let (left, right) = self.posed.appearance.get(name).copied().unwrap_or((0.0, 0.0));
+        let l = Self::left_weight(x);
+        left * l + right * (1.0 - l)
+    }
+
+    /// Total furrow/bulge height at a rest position (decimetres × pattern depth).
+    fn relief(&self, p: Vec3) -> f32 {
+        let mirrored = Vec2::new(p.x.abs(), p.y);
+        let mut height = 0.0;
+        for (name, pattern) in PATTERNS {
+            let weight = self.appearance(name, p.x);
+            if weight > 0.0 {
+                height += weight * pattern(mirrored);
+            }
+        }
+        height
+    }
+
+    fn lit(&self, normal: Vec3, view: Vec3, albedo: Vec3, wrap: f32, specular: f32, shininess: f32) -> Vec3 {
+        let ambient = SKY.lerp(GROUND, (0.5 - 0.5 * normal.y).clamp(0.0, 1.0));
+        let mut colour = albedo * ambient;
+        for light in &self.lights {
+            let n_dot_l = normal.dot(light.direction);
+            // Wrapped diffuse lets light bleed past the terminator, red most (subsurface look).
+            let wrapped = Vec3::new(
+                ((n_dot_l + wrap * 1.6) / (1.0 + wrap * 1.6)).max(0.0),
+                ((n_dot_l + wrap) / (1.0 + wrap)).max(0.0),
+                ((n_dot_l + wrap * 0.8) / (1.0 + wrap * 0.8)).max(0.0),
+            );
+            colour += albedo * light.colour * wrapped;
+            if n_dot_l > 0.0 {
+                let half = (light.direction + view).normalize();
+                let fresnel = 0.04 + 0.96 * (1.0 - view.dot(half).max(0.0)).powi(5);
+                let lobe = normal.dot(half).max(0.0).powf(shininess) * (shininess + 8.0) / 25.0;
+                colour += light.colour * specular * fresnel * lobe * n_dot_l;
+            }
+        }
+        colour
+    }
+
+    fn shade_skin(&self, f: &Fragment) -> Vec3 {
+        let rest = self.rest(f);
+        let identity = self.identity;
+        let lips = smoothstep(0.3, 0.7, self.interpolate(&self.regions.lips, f));
+        let mouth = self.interpolate(&self.regions.inside_mouth, f);
+        let ears = self.interpolate(&self.regions.ears, f);
+
+        // Surface relief: wrinkles and furrows as a bump map in rest space.
+        let mut normal = f.normal;
+        let mut crease = 0.0;
+        let h = self.relief(rest);
+        if h != 0.0 {
+            let e = 0.004;
+            let gx = (self.relief(rest + Vec3::X * e) - self.relief(rest - Vec3::X * e)) / (2.0 * e);
+            let gy = (self.relief(rest + Vec3::Y * e) - self.relief(rest - Vec3::Y * e)) / (2.0 * e);
+            normal = (normal - 0.008 * (gx * Vec3::X + gy * Vec3::Y)).normalize();
+            crease = (-h).max(0.0);
+        }
+
+        // Albedo: skin with mottling, cheeks, lips, stubble, brows, hair, mouth interior.
+        let mottle = 1.0 + 0.05 * (fbm(rest * 40.0) - 0.5) + 0.03 * (fbm(rest * 160.0) - 0.5);
+        let mut albedo = identity.skin * mottle;
+        let cheek = blob(Vec2::new(rest.x.abs(), rest.y), Vec2::new(0.38, 6.95), Vec2::new(0.14, 0.12));
+        albedo = albedo.lerp(albedo * Vec3::new(1.08, 0.9, 0.88), 0.5 * cheek);
+        albedo = albedo.lerp(identity.lips, lips);
+        if identity.stubble > 0.0 {
+            let beard = beard_mask(rest) * identity.stubble * (1.0 - lips);
+            let dots = smoothstep(0.45, 0.75, fbm(rest * 260.0));
+            albedo = albedo.lerp(identity.hair * 0.6 + identity.skin * 0.25, beard * (0.35 + 0.5 * dots));
+        }
+        let hair = hair_mask(rest, identity.hairline) * (1.0 - ears);
+        let brow = brow_mask(rest);
+        let hair_albedo = identity.hair * (0.75 + 0.5 * strands(rest));
+        albedo = albedo.lerp(hair_albedo, hair);
+        albedo = albedo.lerp(identity.hair * 0.8, brow);
+        albedo *= 1.0 - 0.25 * crease.min(1.0);
+        let oily = blob(Vec2::new(rest.x, rest.y), Vec2::new(0.0, 7.3), Vec2::new(0.12, 0.7));
+        let specular = (0.35 + 0.35 * oily) * (1.0 - hair) * (1.0 - 0.8 * brow) + 0.6 * lips;
+        let shininess = 18.0 + 30.0 * lips;
+        let mut colour = self.lit(normal, f.view_dir, albedo, 0.35 * (1.0 - hair), specular, shininess);
+        // The mouth interior is dark, more so the deeper it lies behind the lips.
+        if mouth > 0.0 {
+            let depth = (1.52 - rest.z).max(0.0);
+            let interior = Vec3::new(0.16, 0.035, 0.035) * (-depth * 7.0).exp();
+            colour = colour.lerp(interior, (mouth * 1.5).min(1.0));
+        }
+        // The neck fades into the background above the cut, like a vignetted portrait.
+        let fade = smoothstep(5.86, 6.18, rest.y);
+        colour.lerp(self.background(f.pixel.0, f.pixel.1), 1.0 - fade)
+    }
+
+    fn shade_eye(&self, f: &Fragment, side: usize) -> Vec3 {
+        let eye = self.posed.eyes[side];
+        let d = (f.position - eye.centre).normalize();
+        let angle = d.dot(eye.gaze).clamp(-1.0, 1.0).acos();
+        let right = eye.up.cross(eye.gaze);
+        let around = d.dot(right).atan2(d.dot(eye.up));
+        let iris_edge = 0.52;
+        let pupil = 0.19;
+        let sclera = Vec3::new(0.80, 0.76, 0.72).lerp(Vec3::new(0.75, 0.55, 0.50), smoothstep(0.9, 1.5, angle));
+        let fibres = 0.75 + 0.5 * value_noise(Vec3::new(around * 14.0, angle * 30.0, 0.0));
+        let iris = self.identity.iris * fibres * (1.0 - 0.55 * smoothstep(iris_edge - 0.12, iris_edge, angle));
+        let mut albedo = sclera.lerp(iris, 1.0 - smoothstep(iris_edge - 0.015, iris_edge + 0.015, angle));
+        albedo = albedo.lerp(Vec3::splat(0.01), 1.0 - smoothstep(pupil - 0.02, pupil + 0.01, angle));
+        // The upper lid shades the top of the eyeball.
+        let lid_shadow = 1.0 - 0.45 * smoothstep(0.1, 0.7, d.dot(eye.up));
+        let colour = self.lit(d, f.view_dir, albedo * lid_shadow, 0.1, 0.0, 1.0);
+        colour + self.cornea_highlight(d, f.view_dir)
+    }
+
+    fn cornea_highlight(&self, normal: Vec3, view: Vec3) -> Vec3 {
+        let key = &self.lights[0];
+        let half = (key.direction + view).normalize();
+        key.colour * 0.9 * normal.dot(half).max(0.0).powf(600.0)
+    }
+
+    fn shade_mouth_part(&self, f: &Fragment, base: Vec3, specular: f32) -> Vec3 {
+        let rest = self.rest(f);
+        // Inside the mouth little light arrives: dim everything, and more with depth.
+        let depth = (1.50 - rest.z).max(0.0);
+        let colour = self.lit(f.normal, f.view_dir, base, 0.2, specular, 40.0);
+        colour * 0.7 * (-depth * 6.0).exp()
+    }
+
+    /// Lower lashes are sparse and short: mostly the lid's own tone, a little darker.
+    fn shade_skin_tone_lash(&self, f: &Fragment) -> Vec3 {
+        let albedo = self.identity.skin.lerp(self.identity.hair, 0.12) * 0.85;
+        self.lit(f.normal, f.view_dir, albedo, 0.3, 0.0, 1.0)
+    }
+
+    /// The eye sockets' own shading for the eyeball parts depends on which eye it is.
+    fn eye_index(part: Part) -> usize {
+        if part == Part::EyeLeft { 0 } else { 1 }
+    }
+}
+
+impl Shader for FaceShader<'_> {
+    fn shade(&self, f: &Fragment) -> Vec3 {
+        match Part::from_id(f.part) {
+            Some(Part::Skin) | None => self.shade_skin(f),
+            Some(part @ (Part::EyeLeft | Part::EyeRight)) => self.shade_eye(f, Self::eye_index(part)),
+            Some(Part::TeethUpper | Part::TeethLower) => self.shade_mouth_part(f, Vec3::new(0.70, 0.66, 0.56), 0.5),
+            Some(Part::Tongue) => self.shade_mouth_part(f, Vec3::new(0.45, 0.12, 0.12), 0.3),
+            Some(Part::LashesUpper) => self.identity.hair * 0.3 + Vec3::splat(0.012),
+            Some(Part::LashesLower) => self.shade_skin_tone_lash(f),
+        }
+    }
+
+    fn background(&self, _x: u32, y: u32) -> Vec3 {
+        let t = y as f32 / self.height.max(1) as f32;
+        Vec3::new(0.20, 0.21, 0.23).lerp(Vec3::new(0.11, 0.115, 0.125), t)
+    }
+}
+
+// ---- painted features (rest space, decimetres; x is the person's left) ----
+
+fn smoothstep(edge0: f32, edge1: f32, x: f32) -> f32 {
+    let t = ((x - edge0) / (edge1 - edge0)).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
+/// A soft elliptical blob: 1 at `centre`, 0 beyond `radii`.
+fn blob(p: Vec2, centre: Vec2, radii: Vec2) -> f32 {
+    let d = ((p - centre) / radii).length();
+    1.0 - smoothstep(0.0, 1.0, d)
+}
+
+/// Brows: a tapered arch above each eye, drawn as hair strands.
+fn brow_mask(rest: Vec3) -> f32 {
+    if rest.z < 1.1 {
+        return 0.0;
+    }
+    let x = rest.x.abs();
+    let t = (x - 0.075) / 0.44;
+    if !(-0.05..=1.05).contains(&t) {
+        return 0.0;
+    }
+    let t = t.clamp(0.0, 1.0);
+    let centre = 7.47 + 0.075 * (std::f32::consts::PI * t.powf(0.7)).sin() - 0.03 * t;
+    let half = 0.030 * (1.0 - 0.55 * t) + 0.006;
+    let across = (rest.y - centre) / half;
+    // Strands lean outward and upward near the head of the brow, outward along the tail.
+    let strand = value_noise(Vec3::new((x - rest.y * (0.9 - 0.8 * t)) * 300.0, rest.y * 20.0, 0.5));
+    let body = 1.0 - smoothstep(0.55, 1.0 + 0.25 * strand, across.abs());
+    let ends = smoothstep(-0.05, 0.06, t) * (1.0 - smoothstep(0.9, 1.04, t));
+    (body * ends * (0.75 + 0.35 * strand)).clamp(0.0, 1.0)
+}
+
+/// Scalp hair: above a hairline that runs high over the forehead and low at the nape.
+fn hair_mask(rest: Vec3, raise: f32) -> f32 {
+    let x = rest.x.abs();
+    let line = if rest.z > 1.15 {
+        8.02 + 0.6 * (x - 0.35).max(0.0).powi(2) * 4.0
+    } else if rest.z > 0.85 {
+        7.60 + (rest.z - 0.85) / 0.30 * 0.42
+    } else if rest.z > 0.35 {
+        7.25 + (rest.z - 0.35) / 0.50 * 0.35
+    } else {
+        6.75 + rest.z.max(0.0) / 0.35 * 0.50
+    };
+    let edge = 0.025 + 0.02 * value_noise(rest * 90.0);
+    smoothstep(line + raise - edge, line + raise + edge, rest.y)
+}
+
+/// Beard shadow: jaw, chin and upper lip, below the cheeks.
+fn beard_mask(rest: Vec3) -> f32 {
+    let x = rest.x.abs();
+    if rest.z < 0.6 {
+        return 0.0;
+    }
+    let upper_lip = blob(Vec2::new(x, rest.y), Vec2::new(0.0, 6.78), Vec2::new(0.22, 0.08));
+    let jaw_top = 6.85 - 0.35 * (x / 0.7).powi(2);
+    let jaw = smoothstep(jaw_top + 0.05, jaw_top - 0.08, rest.y) * smoothstep(6.0, 6.2, rest.y);
+    upper_lip.max(jaw)
+}
+
+/// Fine streaks along the hair's flow (back and down).
+fn strands(rest: Vec3) -> f32 {
+    value_noise(Vec3::new(rest.x * 220.0, rest.y * 12.0, rest.z * 30.0))
+}
+
+// ---- furrows and bulges: height fields in mirrored rest space (x ≥ 0) ----
+
+type Pattern = fn(Vec2) -> f32;
+
+const PATTERNS: [(&str, Pattern); 11] = [
+    ("forehead_inner", forehead_inner),
+    ("forehead_outer", forehead_outer),
+    ("glabella_vertical", glabella_vertical),
+    ("glabella_horizontal", glabella_horizontal),
+    ("crows_feet", crows_feet),
+    ("lower_lid_bulge", lower_lid_bulge),
+    ("nose_wrinkles", nose_wrinkles),
+    ("nasolabial", nasolabial),
+    ("dimple", dimple),
+    ("chin_boss", chin_boss),
+    ("lip_press_bulge", lip_press_bulge),
+];
+
+/// A groove of unit depth along a line at distance `d`, with half-width `w`.
+fn groove(d: f32, w: f32) -> f32 {
+    -(-(d / w).powi(2)).exp()
+}
+
+fn segment_distance(p: Vec2, a: Vec2, b: Vec2) -> f32 {
+    let ab = b - a;
+    let t = ((p - a).dot(ab) / ab.length_squared()).clamp(0.0, 1.0);
+    (p - (a + ab * t)).length()
+}
+
+fn polyline_distance(p: Vec2, points: &[Vec2]) -> f32 {
+    points.windows(2).map(|w| segment_distance(p, w[0], w[1])).fold(f32::INFINITY, f32::min)
+}
+
+fn forehead_inner(p: Vec2) -> f32 {
+    let span = 1.0 - smoothstep(0.14, 0.30, p.x);
+    let lines: f32 = [7.72, 7.80, 7.89].iter().map(|&y| groove(p.y - (y + 0.1 * p.x * p.x), 0.010)).sum();
+    span * lines
+}
+
+fn forehead_outer(p: Vec2) -> f32 {
+    let span = smoothstep(0.10, 0.22, p.x) * (1.0 - smoothstep(0.45, 0.58, p.x));
+    let lines: f32 = [7.69, 7.77, 7.86].iter().map(|&y| groove(p.y - (y - 0.25 * (p.x - 0.3).powi(2)), 0.010)).sum();
+    span * lines
+}
+
+fn glabella_vertical(p: Vec2) -> f32 {
+    let d = segment_distance(p, Vec2::new(0.035, 7.40), Vec2::new(0.05, 7.57));
+    1.3 * groove(d, 0.008)
+}
+
+fn glabella_horizontal(p: Vec2) -> f32 {
+    let d = segment_distance(p, Vec2::new(0.0, 7.37), Vec2::new(0.075, 7.39));
+    groove(d, 0.010)
+}
+
+fn crows_feet(p: Vec2) -> f32 {
+    let origin = Vec2::new(0.485, 7.29);
+    [-0.45f32, -0.15, 0.15, 0.45]
+        .iter()
+        .map(|angle| {
+            let dir = Vec2::new(angle.cos(), angle.sin());
+            segment_distance(p, origin + dir * 0.02, origin + dir * 0.11)
+        })
+        .map(|d| groove(d, 0.006))
+        .sum()
+}
+
+fn lower_lid_bulge(p: Vec2) -> f32 {
+    let bulge = blob(p, Vec2::new(0.30, 7.165), Vec2::new(0.12, 0.035));
+    bulge * 0.8 + 0.6 * groove(polyline_distance(p, &[Vec2::new(0.2, 7.135), Vec2::new(0.3, 7.125), Vec2::new(0.41, 7.15)]), 0.008)
+}
+
+fn nose_wrinkles(p: Vec2) -> f32 {
+    let span = 1.0 - smoothstep(0.08, 0.15, p.x);
+    let lines: f32 = [7.20, 7.25, 7.30].iter().map(|&y| groove(p.y - (y - 0.6 * p.x * p.x), 0.008)).sum();
+    span * lines
+}
+
+fn nasolabial(p: Vec2) -> f32 {
+    let fold = [Vec2::new(0.15, 6.94), Vec2::new(0.20, 6.82), Vec2::new(0.25, 6.70), Vec2::new(0.285, 6.58)];
+    1.5 * groove(polyline_distance(p, &fold), 0.014)
+}
+
+fn dimple(p: Vec2) -> f32 {
+    1.2 * groove((p - Vec2::new(0.28, 6.62)).length(), 0.016)
+}
+
+fn chin_boss(p: Vec2) -> f32 {
+    let area = blob(p, Vec2::new(0.0, 6.33), Vec2::new(0.15, 0.09));
+    let dimples = value_noise(Vec3::new(p.x * 90.0, p.y * 90.0, 3.0)) - 0.5;
+    area * dimples * 1.2 + groove(polyline_distance(p, &[Vec2::new(0.0, 6.45), Vec2::new(0.12, 6.47)]), 0.012)
+}
+
+fn lip_press_bulge(p: Vec2) -> f32 {
+    blob(p, Vec2::new(0.0, 6.755), Vec2::new(0.2, 0.03)) + blob(p, Vec2::new(0.0, 6.46), Vec2::new(0.18, 0.03))
+}
+
+// ---- deterministic noise ----
+
+fn hash(x: i32, y: i32, z: i32) -> f32 {
+    let mut h = (x as u32).wrapping_mul(0x8da6_b343) ^ (y as u32).wrapping_mul(0xd816_3841) ^ (z as u32).wrapping_mul(0xcb1a_b31f);
+    h ^= h >> 13;
+    h = h.wrapping_mul(0x5bd1_e995);
+    h ^= h >> 15;
+    (h & 0x00ff_ffff) as f32 / 16_777_215.0
+}
+
+/// Trilinear value noise in [0, 1].
+fn value_noise(p: Vec3) -> f32 {
+    let base = p.floor();
+    let t = p - base;
+    let s = t * t * (Vec3::splat(3.0) - 2.0 * t);
+    let (x, y, z) = (base.x as i32, base.y as i32, base.z as i32);
+    let corner = |dx, dy, dz| hash(x + dx, y + dy, z + dz);
+    let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
+    let x00 = lerp(corner(0, 0, 0), corner(1, 0, 0), s.x);
+    let x10 = lerp(corner(0, 1, 0), corner(1, 1, 0), s.x);
+    let x01 = lerp(corner(0, 0, 1), corner(1, 0, 1), s.x);
+    let x11 = lerp(corner(0, 1, 1), corner(1, 1, 1), s.x);
+    lerp(lerp(x00, x10, s.y), lerp(x01, x11, s.y), s.z)
+}
+
+/// Two octaves of value noise in [0, 1].
+fn fbm(p: Vec3) -> f32 {
+    0.65 * value_noise(p) + 0.35 * value_noise(p * 2.03 + Vec3::splat(17.0))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn noise_is_deterministic_and_bounded() {
+        let p = Vec3::new(1.234, -5.6, 7.89);
+        assert_eq!(value_noise(p), value_noise(p));
+        for i in 0..1000 {
+            let v = value_noise(Vec3::new(i as f32 * 0.37, i as f32 * -0.11, 0.5));
+            assert!((0.0..=1.0).contains(&v));
+        }
+    }
+
+    #[test]
+    fn brows_sit_above_the_eyes_and_not_on_the_forehead() {
+        assert!(brow_mask(Vec3::new(0.3, 7.53, 1.4)) > 0.5);
+        assert!(brow_mask(Vec3::new(-0.3, 7.53, 1.4)) > 0.5);
+        assert_eq!(brow_mask(Vec3::new(0.3, 7.8, 1.4)), 0.0);
+        assert_eq!(brow_mask(Vec3::new(0.0, 7.5, 1.5)), 0.0);
+    }
+
+    #[test]
+    fn patterns_are_furrows_where_expected() {
+        assert!(nasolabial(Vec2::new(0.20, 6.82)) < -1.0);
+        assert!(nasolabial(Vec2::new(0.0, 7.5)).abs() < 1e-3);
+        assert!(forehead_inner(Vec2::new(0.0, 7.72)) < -0.9);
+    }
+}

@@ -1,0 +1,4 @@
+//! Integration tests: drive the real `facslab` binary on files in a temporary directory.
+
+mod cli;
+mod render;
