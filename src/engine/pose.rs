@@ -133,6 +133,11 @@ pub fn pose(model: &FaceModel, prepared: &PreparedIdentity, values: &ChannelValu
                     add_target(&mut positions, &*model.target(&variant)?, |i| weight(i) * factor, not_eye);
                 }
             }
+            Channel::Pull(name) => {
+                let deformer = Deformer::named(name).ok_or_else(|| AssetError::Missing(format!("deformer {name}")))?;
+                let skin = model.part(Part::Skin).vertices.clone();
+                deformer.apply(&model.rest, &mut positions[skin.start as usize..skin.end as usize], left, right);
+            }
             Channel::Shade(name) => {
                 appearance.insert(name.clone(), (left, right));
             }
@@ -146,6 +151,55 @@ pub fn pose(model: &FaceModel, prepared: &PreparedIdentity, values: &ChannelValu
     turn_head(&model.rest, anchor + HEAD_PIVOT, &mut positions, &mut eyes, values);
     let normals = vertex_normals(model, &positions);
     Ok(Posed { positions, normals, neutral: Arc::clone(neutral), eyes, anchor, appearance })
+}
+
+/// A local skin pull (Waters-style): rest-space centre on the person's left, mirrored right.
+#[derive(Debug, Clone, serde::Deserialize)]
+pub struct Deformer {
+    pub name: String,
+    pub centre: [f32; 3],
+    pub radius: f32,
+    pub displacement: [f32; 3],
+}
+
+impl Deformer {
+    /// The deformers shipped with facslab (`stimuli/engine/deformers.toml`).
+    pub fn built_in() -> &'static [Deformer] {
+        #[derive(serde::Deserialize)]
+        struct File {
+            deformer: Vec<Deformer>,
+        }
+        static TABLE: OnceLock<Vec<Deformer>> = OnceLock::new();
+        TABLE.get_or_init(|| {
+            toml::from_str::<File>(include_str!("../../stimuli/engine/deformers.toml"))
+                .expect("the built-in deformers are valid")
+                .deformer
+        })
+    }
+
+    pub fn named(name: &str) -> Option<&'static Deformer> {
+        Deformer::built_in().iter().find(|d| d.name == name)
+    }
+
+    /// Moves `positions` (the first vertices of the model, whose rest positions are `rest`)
+    /// with weights `left` and `right` for the two mirrored copies.
+    fn apply(&self, rest: &[Vec3], positions: &mut [Vec3], left: f32, right: f32) {
+        let centre = Vec3::from(self.centre);
+        let shift = Vec3::from(self.displacement);
+        let mirror = Vec3::new(-1.0, 1.0, 1.0);
+        for (copy, weight) in [(centre, shift * left), (centre * mirror, shift * mirror * right)] {
+            if weight == Vec3::ZERO {
+                continue;
+            }
+            for (p, r) in positions.iter_mut().zip(rest) {
+                let d = (*r - copy).length() / self.radius;
+                if d < 1.0 {
+                    let falloff = (1.0 - d * d).powi(2);
+                    *p += weight * falloff;
+                }
+            }
+        }
+    }
 }
 
 /// `{ethnic}` targets resolve to the three ancestry variants, weighted by the identity.

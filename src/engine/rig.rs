@@ -28,6 +28,8 @@ pub enum Channel {
     EyesConverge,
     /// An appearance change drawn by the shader (wrinkle, furrow, bulge).
     Shade(String),
+    /// A local skin pull (`stimuli/engine/deformers.toml`).
+    Pull(String),
 }
 
 impl Channel {
@@ -37,6 +39,9 @@ impl Channel {
         }
         if let Some(name) = text.strip_prefix("shade:") {
             return Ok(Channel::Shade(name.to_string()));
+        }
+        if let Some(name) = text.strip_prefix("pull:") {
+            return Ok(Channel::Pull(name.to_string()));
         }
         Ok(match text {
             "jaw.open" => Channel::JawOpen,
@@ -53,7 +58,7 @@ impl Channel {
 
     /// Rigid channels act on the whole head or both eyes; they have no side.
     pub fn is_rigid(&self) -> bool {
-        !matches!(self, Channel::Target(_) | Channel::Shade(_))
+        !matches!(self, Channel::Target(_) | Channel::Shade(_) | Channel::Pull(_))
     }
 }
 
@@ -289,7 +294,7 @@ mod tests {
 
     #[test]
     fn eq1_keeps_opposing_signs_within_the_smaller_magnitude() {
-        // AU33 puffs (+1.0), AU35 sucks (-0.6): 1.0 - 0.6 = 0.4, within ±0.6.
+        // AU33 puffs (+1.0), AU35 sucks (-0.4): 1.0 - 0.4 = 0.6, clamped to ±0.4.
         let v = values("33+35");
         assert!((v.get(&target("faceunits/cheekPuff"), Side::Left) - 0.4).abs() < 1e-6);
     }

@@ -141,7 +141,7 @@ impl<'a> FaceShader<'a> {
             let e = 0.004;
             let gx = (self.relief(rest + Vec3::X * e) - self.relief(rest - Vec3::X * e)) / (2.0 * e);
             let gy = (self.relief(rest + Vec3::Y * e) - self.relief(rest - Vec3::Y * e)) / (2.0 * e);
-            normal = (normal - 0.008 * (gx * Vec3::X + gy * Vec3::Y)).normalize();
+            normal = (normal - 0.006 * (gx * Vec3::X + gy * Vec3::Y)).normalize();
             crease = (-h).max(0.0);
         }
 
@@ -161,7 +161,7 @@ impl<'a> FaceShader<'a> {
         let hair_albedo = identity.hair * (0.75 + 0.5 * strands(rest));
         albedo = albedo.lerp(hair_albedo, hair);
         albedo = albedo.lerp(identity.hair * 0.8, brow);
-        albedo *= 1.0 - 0.25 * crease.min(1.0);
+        albedo *= 1.0 - 0.15 * crease.min(1.0);
         let oily = blob(Vec2::new(rest.x, rest.y), Vec2::new(0.0, 7.3), Vec2::new(0.12, 0.7));
         let specular = (0.35 + 0.35 * oily) * (1.0 - hair) * (1.0 - 0.8 * brow) + 0.6 * lips;
         let shininess = 18.0 + 30.0 * lips;
@@ -342,19 +342,19 @@ fn polyline_distance(p: Vec2, points: &[Vec2]) -> f32 {
 
 fn forehead_inner(p: Vec2) -> f32 {
     let span = 1.0 - smoothstep(0.14, 0.30, p.x);
-    let lines: f32 = [7.72, 7.80, 7.89].iter().map(|&y| groove(p.y - (y + 0.1 * p.x * p.x), 0.010)).sum();
+    let lines: f32 = [7.72, 7.80, 7.89].iter().map(|&y| groove(p.y - (y + 0.1 * p.x * p.x), 0.013)).sum();
     span * lines
 }
 
 fn forehead_outer(p: Vec2) -> f32 {
     let span = smoothstep(0.10, 0.22, p.x) * (1.0 - smoothstep(0.45, 0.58, p.x));
-    let lines: f32 = [7.69, 7.77, 7.86].iter().map(|&y| groove(p.y - (y - 0.25 * (p.x - 0.3).powi(2)), 0.010)).sum();
+    let lines: f32 = [7.69, 7.77, 7.86].iter().map(|&y| groove(p.y - (y - 0.25 * (p.x - 0.3).powi(2)), 0.013)).sum();
     span * lines
 }
 
 fn glabella_vertical(p: Vec2) -> f32 {
     let d = segment_distance(p, Vec2::new(0.035, 7.40), Vec2::new(0.05, 7.57));
-    1.3 * groove(d, 0.008)
+    1.2 * groove(d, 0.012)
 }
 
 fn glabella_horizontal(p: Vec2) -> f32 {
@@ -370,7 +370,7 @@ fn crows_feet(p: Vec2) -> f32 {
             let dir = Vec2::new(angle.cos(), angle.sin());
             segment_distance(p, origin + dir * 0.02, origin + dir * 0.11)
         })
-        .map(|d| groove(d, 0.006))
+        .map(|d| 0.8 * groove(d, 0.009))
         .sum()
 }
 
@@ -381,13 +381,13 @@ fn lower_lid_bulge(p: Vec2) -> f32 {
 
 fn nose_wrinkles(p: Vec2) -> f32 {
     let span = 1.0 - smoothstep(0.08, 0.15, p.x);
-    let lines: f32 = [7.20, 7.25, 7.30].iter().map(|&y| groove(p.y - (y - 0.6 * p.x * p.x), 0.008)).sum();
+    let lines: f32 = [7.20, 7.25, 7.30].iter().map(|&y| groove(p.y - (y - 0.6 * p.x * p.x), 0.011)).sum();
     span * lines
 }
 
 fn nasolabial(p: Vec2) -> f32 {
     let fold = [Vec2::new(0.15, 6.94), Vec2::new(0.20, 6.82), Vec2::new(0.25, 6.70), Vec2::new(0.285, 6.58)];
-    1.5 * groove(polyline_distance(p, &fold), 0.014)
+    1.3 * groove(polyline_distance(p, &fold), 0.024)
 }
 
 fn dimple(p: Vec2) -> f32 {
@@ -396,8 +396,8 @@ fn dimple(p: Vec2) -> f32 {
 
 fn chin_boss(p: Vec2) -> f32 {
     let area = blob(p, Vec2::new(0.0, 6.33), Vec2::new(0.15, 0.09));
-    let dimples = value_noise(Vec3::new(p.x * 90.0, p.y * 90.0, 3.0)) - 0.5;
-    area * dimples * 1.2 + groove(polyline_distance(p, &[Vec2::new(0.0, 6.45), Vec2::new(0.12, 6.47)]), 0.012)
+    let dimples = value_noise(Vec3::new(p.x * 45.0, p.y * 45.0, 3.0)) - 0.5;
+    area * dimples * 0.6 + groove(polyline_distance(p, &[Vec2::new(0.0, 6.45), Vec2::new(0.12, 6.47)]), 0.012)
 }
 
 fn lip_press_bulge(p: Vec2) -> f32 {
