@@ -22,8 +22,10 @@ use statrs::distribution::{ChiSquared, ContinuousCDF, FisherSnedecor};
 
 /// Upper-tail probability of F(df1, df2) at `f`.
 pub(crate) fn f_sf(f: f64, df1: f64, df2: f64) -> Result<f64> {
-    let dist = FisherSnedecor::new(df1, df2)
-        .map_err(|e| StatsError::InvalidParameter { what: "F distribution", detail: e.to_string() })?;
+    let dist = FisherSnedecor::new(df1, df2).map_err(|e| StatsError::InvalidParameter {
+        what: "F distribution",
+        detail: e.to_string(),
+    })?;
     Ok(dist.sf(f))
 }
 
@@ -62,7 +64,11 @@ impl Pooled {
 /// Checks groups (k ≥ 2, each n ≥ 1, finite, N > k) and pools them.
 pub(crate) fn pool_groups(groups: &[&[f64]]) -> Result<Pooled> {
     if groups.len() < 2 {
-        return Err(StatsError::TooFewObservations { what: "ANOVA groups", needed: 2, got: groups.len() });
+        return Err(StatsError::TooFewObservations {
+            what: "ANOVA groups",
+            needed: 2,
+            got: groups.len(),
+        });
     }
     let mut means = Vec::with_capacity(groups.len());
     let mut ss_within = 0.0;
@@ -75,10 +81,19 @@ pub(crate) fn pool_groups(groups: &[&[f64]]) -> Result<Pooled> {
     }
     let n_total: usize = groups.iter().map(|g| g.len()).sum();
     if n_total <= groups.len() {
-        return Err(StatsError::TooFewObservations { what: "ANOVA (N > k)", needed: groups.len() + 1, got: n_total });
+        return Err(StatsError::TooFewObservations {
+            what: "ANOVA (N > k)",
+            needed: groups.len() + 1,
+            got: n_total,
+        });
     }
     let ns = groups.iter().map(|g| g.len()).collect();
-    Ok(Pooled { means, ns, ss_within, df_within: (n_total - groups.len()) as f64 })
+    Ok(Pooled {
+        means,
+        ns,
+        ss_within,
+        df_within: (n_total - groups.len()) as f64,
+    })
 }
 
 /// One-way ANOVA over `groups` (each a slice of observations).
@@ -86,9 +101,16 @@ pub fn one_way(groups: &[&[f64]]) -> Result<OneWay> {
     let pooled = pool_groups(groups)?;
     let n_total: usize = pooled.ns.iter().sum();
     let grand = groups.iter().flat_map(|g| g.iter()).sum::<f64>() / n_total as f64;
-    let ss_between: f64 = pooled.means.iter().zip(&pooled.ns).map(|(m, &n)| n as f64 * (m - grand).powi(2)).sum();
+    let ss_between: f64 = pooled
+        .means
+        .iter()
+        .zip(&pooled.ns)
+        .map(|(m, &n)| n as f64 * (m - grand).powi(2))
+        .sum();
     if pooled.ss_within == 0.0 {
-        return Err(StatsError::ZeroVariance { what: "one-way ANOVA (within groups)" });
+        return Err(StatsError::ZeroVariance {
+            what: "one-way ANOVA (within groups)",
+        });
     }
     let df_between = (groups.len() - 1) as f64;
     let (ms_b, ms_w) = (ss_between / df_between, pooled.ms_within());
@@ -154,6 +176,7 @@ pub(crate) enum Coding {
     /// Deviation contrasts: level l < L−1 → e_l, last level → −1 in every column.
     Sum,
     /// Dummy contrasts against the first level.
+    #[cfg_attr(not(test), allow(dead_code))]
     Treatment,
 }
 
@@ -162,7 +185,10 @@ fn encode_levels<S: AsRef<str>>(x: &[S]) -> (Vec<String>, Vec<usize>) {
     let mut levels: Vec<String> = x.iter().map(|s| s.as_ref().to_owned()).collect();
     levels.sort();
     levels.dedup();
-    let idx = x.iter().map(|s| levels.binary_search(&s.as_ref().to_owned()).unwrap_or(0)).collect();
+    let idx = x
+        .iter()
+        .map(|s| levels.binary_search(&s.as_ref().to_owned()).unwrap_or(0))
+        .collect();
     (levels, idx)
 }
 
@@ -189,7 +215,10 @@ fn build_design(ia: &[usize], la: usize, ib: &[usize], lb: usize, coding: Coding
     let (pa, pb) = (la - 1, lb - 1);
     let ncol = 1 + pa + pb + pa * pb;
     let x = DMatrix::from_fn(ia.len(), ncol, |r, c| {
-        let (ca, cb) = (contrast_row(ia[r], la, coding), contrast_row(ib[r], lb, coding));
+        let (ca, cb) = (
+            contrast_row(ia[r], la, coding),
+            contrast_row(ib[r], lb, coding),
+        );
         match c {
             0 => 1.0,
             c if c <= pa => ca[c - 1],
@@ -216,7 +245,12 @@ fn with_terms(terms: &[&Vec<usize>]) -> Vec<usize> {
 }
 
 /// Two-way between-subjects ANOVA of `y` on factors `a` and `b` (see the module doc).
-pub fn two_way<S: AsRef<str>, T: AsRef<str>>(a: &[S], b: &[T], y: &[f64], ss_type: SsType) -> Result<AnovaTable> {
+pub fn two_way<S: AsRef<str>, T: AsRef<str>>(
+    a: &[S],
+    b: &[T],
+    y: &[f64],
+    ss_type: SsType,
+) -> Result<AnovaTable> {
     two_way_coded(a, b, y, ss_type, Coding::Sum)
 }
 
@@ -234,7 +268,11 @@ pub(crate) fn two_way_coded<S: AsRef<str>, T: AsRef<str>>(
     if la.len() < 2 || lb.len() < 2 {
         return Err(StatsError::InvalidParameter {
             what: "two-way ANOVA",
-            detail: format!("each factor needs ≥ 2 levels (A has {}, B has {})", la.len(), lb.len()),
+            detail: format!(
+                "each factor needs ≥ 2 levels (A has {}, B has {})",
+                la.len(),
+                lb.len()
+            ),
         });
     }
     let d = build_design(&ia, la.len(), &ib, lb.len(), coding);
@@ -244,18 +282,36 @@ pub(crate) fn two_way_coded<S: AsRef<str>, T: AsRef<str>>(
     if rank_full < full.len() || y.len() <= rank_full {
         return Err(StatsError::RankDeficient {
             what: "two-way ANOVA",
-            detail: format!("rank {rank_full} of {} columns with n = {} (empty cell?)", full.len(), y.len()),
+            detail: format!(
+                "rank {rank_full} of {} columns with n = {} (empty cell?)",
+                full.len(),
+                y.len()
+            ),
         });
     }
     let rss = |terms: &[&Vec<usize>]| rss_and_rank(&d.x, &yv, &with_terms(terms)).0;
     let (ss_a, ss_b, ss_ab) = match ss_type {
-        SsType::I => (rss(&[]) - rss(&[&d.a]), rss(&[&d.a]) - rss(&[&d.a, &d.b]), rss(&[&d.a, &d.b]) - rss_full),
-        SsType::II => (rss(&[&d.b]) - rss(&[&d.a, &d.b]), rss(&[&d.a]) - rss(&[&d.a, &d.b]), rss(&[&d.a, &d.b]) - rss_full),
-        SsType::III => (rss(&[&d.b, &d.ab]) - rss_full, rss(&[&d.a, &d.ab]) - rss_full, rss(&[&d.a, &d.b]) - rss_full),
+        SsType::I => (
+            rss(&[]) - rss(&[&d.a]),
+            rss(&[&d.a]) - rss(&[&d.a, &d.b]),
+            rss(&[&d.a, &d.b]) - rss_full,
+        ),
+        SsType::II => (
+            rss(&[&d.b]) - rss(&[&d.a, &d.b]),
+            rss(&[&d.a]) - rss(&[&d.a, &d.b]),
+            rss(&[&d.a, &d.b]) - rss_full,
+        ),
+        SsType::III => (
+            rss(&[&d.b, &d.ab]) - rss_full,
+            rss(&[&d.a, &d.ab]) - rss_full,
+            rss(&[&d.a, &d.b]) - rss_full,
+        ),
     };
     let df_res = (y.len() - rank_full) as f64;
     if rss_full == 0.0 {
-        return Err(StatsError::ZeroVariance { what: "two-way ANOVA (residual)" });
+        return Err(StatsError::ZeroVariance {
+            what: "two-way ANOVA (residual)",
+        });
     }
     let mse = rss_full / df_res;
     let term = |name: &str, ss: f64, df: usize| -> Result<AnovaRow> {
@@ -274,7 +330,14 @@ pub(crate) fn two_way_coded<S: AsRef<str>, T: AsRef<str>>(
         term("A", ss_a, d.a.len())?,
         term("B", ss_b, d.b.len())?,
         term("A:B", ss_ab, d.ab.len())?,
-        AnovaRow { term: "Residual".into(), ss: rss_full, df: df_res, f: None, p: None, partial_eta2: None },
+        AnovaRow {
+            term: "Residual".into(),
+            ss: rss_full,
+            df: df_res,
+            f: None,
+            p: None,
+            partial_eta2: None,
+        },
     ];
     Ok(AnovaTable { ss_type, rows })
 }
@@ -310,11 +373,19 @@ pub struct RmAnova {
 fn check_wide(data: &[Vec<f64>]) -> Result<(usize, usize)> {
     let n = data.len();
     if n < 2 {
-        return Err(StatsError::TooFewObservations { what: "RM ANOVA subjects", needed: 2, got: n });
+        return Err(StatsError::TooFewObservations {
+            what: "RM ANOVA subjects",
+            needed: 2,
+            got: n,
+        });
     }
     let k = data[0].len();
     if k < 2 {
-        return Err(StatsError::TooFewObservations { what: "RM ANOVA conditions", needed: 2, got: k });
+        return Err(StatsError::TooFewObservations {
+            what: "RM ANOVA conditions",
+            needed: 2,
+            got: k,
+        });
     }
     for row in data {
         check_same_len("RM ANOVA row (conditions)", row.len(), k)?;
@@ -325,9 +396,14 @@ fn check_wide(data: &[Vec<f64>]) -> Result<(usize, usize)> {
 
 /// Sample covariance matrix (n − 1) of the columns of wide data.
 fn covariance(data: &[Vec<f64>], n: usize, k: usize) -> DMatrix<f64> {
-    let means: Vec<f64> = (0..k).map(|j| data.iter().map(|r| r[j]).sum::<f64>() / n as f64).collect();
+    let means: Vec<f64> = (0..k)
+        .map(|j| data.iter().map(|r| r[j]).sum::<f64>() / n as f64)
+        .collect();
     DMatrix::from_fn(k, k, |i, j| {
-        data.iter().map(|r| (r[i] - means[i]) * (r[j] - means[j])).sum::<f64>() / (n - 1) as f64
+        data.iter()
+            .map(|r| (r[i] - means[i]) * (r[j] - means[j]))
+            .sum::<f64>()
+            / (n - 1) as f64
     })
 }
 
@@ -359,7 +435,10 @@ fn sphericity(data: &[Vec<f64>], n: usize, k: usize) -> Result<(f64, f64, f64)> 
     let chi2 = -w.ln() * (1.0 - (2.0 * d * d + d + 2.0) / (6.0 * d * ddof)) * ddof;
     let dof = d * (d + 1.0) / 2.0 - 1.0;
     let p = ChiSquared::new(dof)
-        .map_err(|e| StatsError::InvalidParameter { what: "χ² distribution", detail: e.to_string() })?
+        .map_err(|e| StatsError::InvalidParameter {
+            what: "χ² distribution",
+            detail: e.to_string(),
+        })?
         .sf(chi2);
     Ok((eps, w, p))
 }
@@ -370,12 +449,23 @@ pub fn rm_one_way(data: &[Vec<f64>]) -> Result<RmAnova> {
     let (n, k) = check_wide(data)?;
     let grand = data.iter().flatten().sum::<f64>() / (n * k) as f64;
     let col_mean = |j: usize| data.iter().map(|r| r[j]).sum::<f64>() / n as f64;
-    let ss_conditions = (0..k).map(|j| n as f64 * (col_mean(j) - grand).powi(2)).sum::<f64>();
-    let ss_subjects = data.iter().map(|r| k as f64 * (r.iter().sum::<f64>() / k as f64 - grand).powi(2)).sum::<f64>();
-    let ss_total = data.iter().flatten().map(|v| (v - grand).powi(2)).sum::<f64>();
+    let ss_conditions = (0..k)
+        .map(|j| n as f64 * (col_mean(j) - grand).powi(2))
+        .sum::<f64>();
+    let ss_subjects = data
+        .iter()
+        .map(|r| k as f64 * (r.iter().sum::<f64>() / k as f64 - grand).powi(2))
+        .sum::<f64>();
+    let ss_total = data
+        .iter()
+        .flatten()
+        .map(|v| (v - grand).powi(2))
+        .sum::<f64>();
     let ss_error = ss_total - ss_conditions - ss_subjects;
     if ss_error <= 0.0 {
-        return Err(StatsError::ZeroVariance { what: "RM ANOVA (error term)" });
+        return Err(StatsError::ZeroVariance {
+            what: "RM ANOVA (error term)",
+        });
     }
     let (df1, df2) = ((k - 1) as f64, ((k - 1) * (n - 1)) as f64);
     let f = (ss_conditions / df1) / (ss_error / df2);
@@ -432,8 +522,16 @@ mod tests {
             assert_close(&format!("{base} SS"), row.ss, r(&format!("{base}/SS")));
             assert_close(&format!("{base} df"), row.df, r(&format!("{base}/df")));
             if term != "Residual" {
-                assert_close(&format!("{base} F"), row.f.unwrap(), r(&format!("{base}/F")));
-                assert_close(&format!("{base} p"), row.p.unwrap(), r(&format!("{base}/p")));
+                assert_close(
+                    &format!("{base} F"),
+                    row.f.unwrap(),
+                    r(&format!("{base}/F")),
+                );
+                assert_close(
+                    &format!("{base} p"),
+                    row.p.unwrap(),
+                    r(&format!("{base}/p")),
+                );
             }
         }
     }
@@ -472,7 +570,12 @@ mod tests {
         // and the terms plus residual add up to the total SS
         let m = y.iter().sum::<f64>() / 12.0;
         let total: f64 = y.iter().map(|v| (v - m).powi(2)).sum();
-        assert_close_tol("SS sum", t1.rows.iter().map(|r| r.ss).sum(), total, IDENTITY_TOL);
+        assert_close_tol(
+            "SS sum",
+            t1.rows.iter().map(|r| r.ss).sum(),
+            total,
+            IDENTITY_TOL,
+        );
     }
 
     #[test]
@@ -480,7 +583,10 @@ mod tests {
         let a = ["a1", "a1", "a2", "a2", "a1"];
         let b = ["b1", "b2", "b1", "b1", "b1"];
         let y = [1.0, 2.0, 3.0, 4.0, 1.5];
-        assert!(matches!(two_way(&a, &b, &y, SsType::III), Err(StatsError::RankDeficient { .. })));
+        assert!(matches!(
+            two_way(&a, &b, &y, SsType::III),
+            Err(StatsError::RankDeficient { .. })
+        ));
     }
 
     #[test]
@@ -513,6 +619,9 @@ mod tests {
         d[2][1] = f64::NAN;
         assert!(matches!(rm_one_way(&d), Err(StatsError::NonFinite { .. })));
         d[2] = vec![1.0, 2.0];
-        assert!(matches!(rm_one_way(&d), Err(StatsError::LengthMismatch { .. })));
+        assert!(matches!(
+            rm_one_way(&d),
+            Err(StatsError::LengthMismatch { .. })
+        ));
     }
 }

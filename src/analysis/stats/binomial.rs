@@ -35,26 +35,43 @@ pub struct BinomTest {
 }
 
 /// Exact test of `successes` out of `trials` against success probability `p0`.
-pub fn binomial_test(successes: u64, trials: u64, p0: f64, alternative: Alternative) -> Result<BinomTest> {
+pub fn binomial_test(
+    successes: u64,
+    trials: u64,
+    p0: f64,
+    alternative: Alternative,
+) -> Result<BinomTest> {
     if trials == 0 || successes > trials {
         return Err(StatsError::InvalidParameter {
             what: "binomial test",
             detail: format!("{successes} successes out of {trials} trials"),
         });
     }
-    let dist = Binomial::new(p0, trials)
-        .map_err(|e| StatsError::InvalidParameter { what: "binomial test p0", detail: e.to_string() })?;
+    let dist = Binomial::new(p0, trials).map_err(|e| StatsError::InvalidParameter {
+        what: "binomial test p0",
+        detail: e.to_string(),
+    })?;
     let sum = |range: std::ops::RangeInclusive<u64>| range.map(|i| dist.pmf(i)).sum::<f64>();
     let p_value = match alternative {
         Alternative::Greater => sum(successes..=trials),
         Alternative::Less => sum(0..=successes),
         Alternative::TwoSided => {
             let bound = dist.pmf(successes) * (1.0 + TIE_RTOL);
-            (0..=trials).map(|i| dist.pmf(i)).filter(|&p| p <= bound).sum::<f64>()
+            (0..=trials)
+                .map(|i| dist.pmf(i))
+                .filter(|&p| p <= bound)
+                .sum::<f64>()
         }
     }
     .min(1.0);
-    Ok(BinomTest { successes, trials, p0, alternative, estimate: successes as f64 / trials as f64, p_value })
+    Ok(BinomTest {
+        successes,
+        trials,
+        p0,
+        alternative,
+        estimate: successes as f64 / trials as f64,
+        p_value,
+    })
 }
 
 #[cfg(test)]
@@ -68,16 +85,41 @@ mod tests {
         // arithmetic (Python `fractions`, binomial pmf summed term by term).
         let cases = [
             // (k, n, p0, two-sided, greater, less)
-            (7, 20, 1.0 / 7.0, 0.017053144165804498, 0.017053144165804498, 0.9956356168770765),
+            (
+                7,
+                20,
+                1.0 / 7.0,
+                0.017053144165804498,
+                0.017053144165804498,
+                0.9956356168770765,
+            ),
             (3, 10, 0.5, 0.34375, 0.9453125, 0.171875),
-            (12, 20, 0.5, 0.5034446716308594, 0.2517223358154297, 0.8684120178222656),
+            (
+                12,
+                20,
+                0.5,
+                0.5034446716308594,
+                0.2517223358154297,
+                0.8684120178222656,
+            ),
             (0, 10, 0.25, 0.07604122161865234, 1.0, 0.056313514709472656),
-            (9, 30, 1.0 / 6.0, 0.08005459978538193, 0.05056555815376996, 0.9802937162310322),
+            (
+                9,
+                30,
+                1.0 / 6.0,
+                0.08005459978538193,
+                0.05056555815376996,
+                0.9802937162310322,
+            ),
         ];
         for (k, n, p0, two, greater, less) in cases {
             let t = |alt| binomial_test(k, n, p0, alt).unwrap().p_value;
             assert_close(&format!("{k}/{n} two-sided"), t(Alternative::TwoSided), two);
-            assert_close(&format!("{k}/{n} greater"), t(Alternative::Greater), greater);
+            assert_close(
+                &format!("{k}/{n} greater"),
+                t(Alternative::Greater),
+                greater,
+            );
             assert_close(&format!("{k}/{n} less"), t(Alternative::Less), less);
         }
     }
@@ -85,10 +127,19 @@ mod tests {
     #[test]
     fn symmetric_case_and_errors() {
         // Identity: with p0 = 1/2 the two-sided p is twice the smaller tail (capped at 1).
-        let two = binomial_test(3, 10, 0.5, Alternative::TwoSided).unwrap().p_value;
-        let less = binomial_test(3, 10, 0.5, Alternative::Less).unwrap().p_value;
+        let two = binomial_test(3, 10, 0.5, Alternative::TwoSided)
+            .unwrap()
+            .p_value;
+        let less = binomial_test(3, 10, 0.5, Alternative::Less)
+            .unwrap()
+            .p_value;
         assert_close_tol("2 × tail", two, 2.0 * less, IDENTITY_TOL);
-        assert_eq!(binomial_test(5, 10, 0.5, Alternative::TwoSided).unwrap().p_value, 1.0);
+        assert_eq!(
+            binomial_test(5, 10, 0.5, Alternative::TwoSided)
+                .unwrap()
+                .p_value,
+            1.0
+        );
         assert!(binomial_test(11, 10, 0.5, Alternative::TwoSided).is_err());
         assert!(binomial_test(1, 10, 1.5, Alternative::TwoSided).is_err());
     }

@@ -60,16 +60,28 @@ impl ConfusionMatrix {
         y_true: &[T],
         y_pred: &[U],
     ) -> Result<Self> {
-        super::error::check_same_len("confusion matrix (y_true vs y_pred)", y_true.len(), y_pred.len())?;
+        super::error::check_same_len(
+            "confusion matrix (y_true vs y_pred)",
+            y_true.len(),
+            y_pred.len(),
+        )?;
         let labels: Vec<String> = labels.iter().map(|l| l.as_ref().to_owned()).collect();
         let mut seen = labels.clone();
         seen.sort();
         seen.dedup();
         if seen.len() != labels.len() || labels.is_empty() {
-            return Err(StatsError::InvalidParameter { what: "confusion matrix", detail: "label set empty or has duplicates".into() });
+            return Err(StatsError::InvalidParameter {
+                what: "confusion matrix",
+                detail: "label set empty or has duplicates".into(),
+            });
         }
         let index = |l: &str| {
-            labels.iter().position(|x| x == l).ok_or_else(|| StatsError::UnknownLabel { label: l.to_owned() })
+            labels
+                .iter()
+                .position(|x| x == l)
+                .ok_or_else(|| StatsError::UnknownLabel {
+                    label: l.to_owned(),
+                })
         };
         let mut counts = vec![vec![0u64; labels.len()]; labels.len()];
         for (t, p) in y_true.iter().zip(y_pred) {
@@ -108,7 +120,11 @@ impl ConfusionMatrix {
 
     fn check_nonempty(&self) -> Result<f64> {
         match self.total() {
-            0 => Err(StatsError::TooFewObservations { what: "confusion matrix", needed: 1, got: 0 }),
+            0 => Err(StatsError::TooFewObservations {
+                what: "confusion matrix",
+                needed: 1,
+                got: 0,
+            }),
             n => Ok(n as f64),
         }
     }
@@ -142,10 +158,16 @@ impl ConfusionMatrix {
         let (precision, recall, f1) = match averaging {
             Averaging::Macro => {
                 let k = pc.len() as f64;
-                (pc.iter().map(|c| c.precision).sum::<f64>() / k, pc.iter().map(|c| c.recall).sum::<f64>() / k, pc.iter().map(|c| c.f1).sum::<f64>() / k)
+                (
+                    pc.iter().map(|c| c.precision).sum::<f64>() / k,
+                    pc.iter().map(|c| c.recall).sum::<f64>() / k,
+                    pc.iter().map(|c| c.f1).sum::<f64>() / k,
+                )
             }
             Averaging::Weighted => {
-                let w = |f: fn(&ClassMetrics) -> f64| pc.iter().map(|c| f(c) * c.support as f64).sum::<f64>() / n;
+                let w = |f: fn(&ClassMetrics) -> f64| {
+                    pc.iter().map(|c| f(c) * c.support as f64).sum::<f64>() / n
+                };
                 (w(|c| c.precision), w(|c| c.recall), w(|c| c.f1))
             }
             Averaging::Micro => {
@@ -155,7 +177,12 @@ impl ConfusionMatrix {
                 (p, r, ratio(2.0 * p * r, p + r))
             }
         };
-        Ok(Averaged { averaging, precision, recall, f1 })
+        Ok(Averaged {
+            averaging,
+            precision,
+            recall,
+            f1,
+        })
     }
 
     /// Cohen's κ between the row and column classifications: (p_o − p_e)/(1 − p_e) with
@@ -163,9 +190,14 @@ impl ConfusionMatrix {
     pub fn cohen_kappa(&self) -> Result<f64> {
         let n = self.check_nonempty()?;
         let po = self.diag() as f64 / n;
-        let pe: f64 = (0..self.labels.len()).map(|i| self.row_sum(i) as f64 * self.col_sum(i) as f64).sum::<f64>() / (n * n);
+        let pe: f64 = (0..self.labels.len())
+            .map(|i| self.row_sum(i) as f64 * self.col_sum(i) as f64)
+            .sum::<f64>()
+            / (n * n);
         if pe >= 1.0 {
-            return Err(StatsError::ZeroVariance { what: "Cohen's kappa (chance agreement is 1)" });
+            return Err(StatsError::ZeroVariance {
+                what: "Cohen's kappa (chance agreement is 1)",
+            });
         }
         Ok((po - pe) / (1.0 - pe))
     }
@@ -183,10 +215,16 @@ mod tests {
     #[test]
     fn confusion_matrix_matches_sklearn() {
         // sklearn.metrics.confusion_matrix(labels=EMO)
-        let expected: Vec<Vec<u64>> = serde_json::from_value(rv("classification/confusion_rows_true_cols_pred").clone()).unwrap();
+        let expected: Vec<Vec<u64>> =
+            serde_json::from_value(rv("classification/confusion_rows_true_cols_pred").clone())
+                .unwrap();
         assert_eq!(cm().counts, expected);
         // sklearn.metrics.accuracy_score
-        assert_close("accuracy", cm().accuracy().unwrap(), r("classification/accuracy"));
+        assert_close(
+            "accuracy",
+            cm().accuracy().unwrap(),
+            r("classification/accuracy"),
+        );
     }
 
     #[test]
@@ -194,7 +232,11 @@ mod tests {
         // sklearn precision_recall_fscore_support(average=None, zero_division=0)
         for c in cm().per_class() {
             let base = format!("classification/per_class/{}", c.label);
-            assert_close(&format!("{base} P"), c.precision, r(&format!("{base}/precision")));
+            assert_close(
+                &format!("{base} P"),
+                c.precision,
+                r(&format!("{base}/precision")),
+            );
             assert_close(&format!("{base} R"), c.recall, r(&format!("{base}/recall")));
             assert_close(&format!("{base} F1"), c.f1, r(&format!("{base}/f1")));
             assert_eq!(c.support as f64, r(&format!("{base}/support")));
@@ -204,18 +246,38 @@ mod tests {
     #[test]
     fn averages_match_sklearn() {
         // sklearn precision_recall_fscore_support(average=macro|micro|weighted, zero_division=0)
-        for (avg, key) in [(Averaging::Macro, "macro"), (Averaging::Micro, "micro"), (Averaging::Weighted, "weighted")] {
+        for (avg, key) in [
+            (Averaging::Macro, "macro"),
+            (Averaging::Micro, "micro"),
+            (Averaging::Weighted, "weighted"),
+        ] {
             let a = cm().average(avg).unwrap();
-            assert_close(&format!("{key} P"), a.precision, r(&format!("classification/{key}/precision")));
-            assert_close(&format!("{key} R"), a.recall, r(&format!("classification/{key}/recall")));
-            assert_close(&format!("{key} F1"), a.f1, r(&format!("classification/{key}/f1")));
+            assert_close(
+                &format!("{key} P"),
+                a.precision,
+                r(&format!("classification/{key}/precision")),
+            );
+            assert_close(
+                &format!("{key} R"),
+                a.recall,
+                r(&format!("classification/{key}/recall")),
+            );
+            assert_close(
+                &format!("{key} F1"),
+                a.f1,
+                r(&format!("classification/{key}/f1")),
+            );
         }
     }
 
     #[test]
     fn cohen_kappa_matches_sklearn() {
         // sklearn.metrics.cohen_kappa_score
-        assert_close("kappa", cm().cohen_kappa().unwrap(), r("classification/cohen_kappa"));
+        assert_close(
+            "kappa",
+            cm().cohen_kappa().unwrap(),
+            r("classification/cohen_kappa"),
+        );
     }
 
     #[test]
@@ -223,14 +285,28 @@ mod tests {
         let m = cm();
         // F1 is the harmonic mean of P and R.
         for c in m.per_class() {
-            let h = if c.precision + c.recall == 0.0 { 0.0 } else { 2.0 * c.precision * c.recall / (c.precision + c.recall) };
+            let h = if c.precision + c.recall == 0.0 {
+                0.0
+            } else {
+                2.0 * c.precision * c.recall / (c.precision + c.recall)
+            };
             assert_close_tol(&c.label, c.f1, h, IDENTITY_TOL);
         }
         // Micro P = R = F1 = accuracy for single-label data over the full label set.
         let micro = m.average(Averaging::Micro).unwrap();
-        assert_close_tol("micro f1 = accuracy", micro.f1, m.accuracy().unwrap(), IDENTITY_TOL);
+        assert_close_tol(
+            "micro f1 = accuracy",
+            micro.f1,
+            m.accuracy().unwrap(),
+            IDENTITY_TOL,
+        );
         // Weighted recall = accuracy.
-        assert_close_tol("weighted R", m.average(Averaging::Weighted).unwrap().recall, m.accuracy().unwrap(), IDENTITY_TOL);
+        assert_close_tol(
+            "weighted R",
+            m.average(Averaging::Weighted).unwrap().recall,
+            m.accuracy().unwrap(),
+            IDENTITY_TOL,
+        );
     }
 
     #[test]
@@ -243,6 +319,11 @@ mod tests {
             ConfusionMatrix::from_labels(&["a"], &["a"], &["z"]),
             Err(StatsError::UnknownLabel { .. })
         ));
-        assert!(ConfusionMatrix::from_labels(&["a"], &["a"], &["a"]).unwrap().cohen_kappa().is_err());
+        assert!(
+            ConfusionMatrix::from_labels(&["a"], &["a"], &["a"])
+                .unwrap()
+                .cohen_kappa()
+                .is_err()
+        );
     }
 }

@@ -42,12 +42,19 @@ fn sq_dist(a: &[f64], b: &[f64]) -> f64 {
 
 /// Index of the minimum (first on ties).
 fn argmin(values: impl Iterator<Item = f64>) -> (usize, f64) {
-    values.enumerate().fold((0, f64::INFINITY), |best, (i, v)| if v < best.1 { (i, v) } else { best })
+    values.enumerate().fold(
+        (0, f64::INFINITY),
+        |best, (i, v)| if v < best.1 { (i, v) } else { best },
+    )
 }
 
 /// Checks a non-empty point set of one dimension with finite coordinates.
 fn check_points(what: &'static str, points: &[Vec<f64>]) -> Result<usize> {
-    let first = points.first().ok_or(StatsError::TooFewObservations { what, needed: 1, got: 0 })?;
+    let first = points.first().ok_or(StatsError::TooFewObservations {
+        what,
+        needed: 1,
+        got: 0,
+    })?;
     let dim = first.len();
     for p in points {
         super::error::check_same_len(what, p.len(), dim)?;
@@ -57,12 +64,20 @@ fn check_points(what: &'static str, points: &[Vec<f64>]) -> Result<usize> {
 }
 
 fn assign(points: &[Vec<f64>], centers: &[Vec<f64>]) -> Vec<usize> {
-    points.iter().map(|p| argmin(centers.iter().map(|c| sq_dist(p, c))).0).collect()
+    points
+        .iter()
+        .map(|p| argmin(centers.iter().map(|c| sq_dist(p, c))).0)
+        .collect()
 }
 
 fn update_centers(points: &[Vec<f64>], labels: &[usize], centers: &mut [Vec<f64>]) {
     for (c, center) in centers.iter_mut().enumerate() {
-        let members: Vec<&Vec<f64>> = points.iter().zip(labels).filter(|(_, l)| **l == c).map(|(p, _)| p).collect();
+        let members: Vec<&Vec<f64>> = points
+            .iter()
+            .zip(labels)
+            .filter(|(_, l)| **l == c)
+            .map(|(p, _)| p)
+            .collect();
         if members.is_empty() {
             continue;
         }
@@ -73,13 +88,24 @@ fn update_centers(points: &[Vec<f64>], labels: &[usize], centers: &mut [Vec<f64>
 }
 
 /// k-means (Lloyd) from `initial_centers` (see the module doc).
-pub fn kmeans(points: &[Vec<f64>], initial_centers: &[Vec<f64>], max_iter: usize) -> Result<KMeans> {
+pub fn kmeans(
+    points: &[Vec<f64>],
+    initial_centers: &[Vec<f64>],
+    max_iter: usize,
+) -> Result<KMeans> {
     let dim = check_points("k-means points", points)?;
     if check_points("k-means initial centres", initial_centers)? != dim {
-        return Err(StatsError::LengthMismatch { what: "k-means centre dimension", left: initial_centers[0].len(), right: dim });
+        return Err(StatsError::LengthMismatch {
+            what: "k-means centre dimension",
+            left: initial_centers[0].len(),
+            right: dim,
+        });
     }
     if max_iter == 0 {
-        return Err(StatsError::InvalidParameter { what: "k-means", detail: "max_iter = 0".into() });
+        return Err(StatsError::InvalidParameter {
+            what: "k-means",
+            detail: "max_iter = 0".into(),
+        });
     }
     let mut centers = initial_centers.to_vec();
     let mut labels = vec![usize::MAX; points.len()];
@@ -95,12 +121,25 @@ pub fn kmeans(points: &[Vec<f64>], initial_centers: &[Vec<f64>], max_iter: usize
         }
     }
     let labels = assign(points, &centers);
-    let inertia = points.iter().zip(&labels).map(|(p, &l)| sq_dist(p, &centers[l])).sum();
-    Ok(KMeans { labels, centers, inertia, n_iter })
+    let inertia = points
+        .iter()
+        .zip(&labels)
+        .map(|(p, &l)| sq_dist(p, &centers[l]))
+        .sum();
+    Ok(KMeans {
+        labels,
+        centers,
+        inertia,
+        n_iter,
+    })
 }
 
 /// k-means starting from the given rows of `points` as centres.
-pub fn kmeans_from_rows(points: &[Vec<f64>], init_rows: &[usize], max_iter: usize) -> Result<KMeans> {
+pub fn kmeans_from_rows(
+    points: &[Vec<f64>],
+    init_rows: &[usize],
+    max_iter: usize,
+) -> Result<KMeans> {
     let init = rows(points, init_rows)?;
     kmeans(points, &init, max_iter)
 }
@@ -108,10 +147,13 @@ pub fn kmeans_from_rows(points: &[Vec<f64>], init_rows: &[usize], max_iter: usiz
 fn rows(points: &[Vec<f64>], idx: &[usize]) -> Result<Vec<Vec<f64>>> {
     idx.iter()
         .map(|&i| {
-            points.get(i).cloned().ok_or_else(|| StatsError::InvalidParameter {
-                what: "initial rows",
-                detail: format!("row {i} out of range (n = {})", points.len()),
-            })
+            points
+                .get(i)
+                .cloned()
+                .ok_or_else(|| StatsError::InvalidParameter {
+                    what: "initial rows",
+                    detail: format!("row {i} out of range (n = {})", points.len()),
+                })
         })
         .collect()
 }
@@ -119,12 +161,22 @@ fn rows(points: &[Vec<f64>], idx: &[usize]) -> Result<Vec<Vec<f64>>> {
 /// Euclidean distance matrix of `points`.
 pub fn euclidean_distances(points: &[Vec<f64>]) -> Result<Vec<Vec<f64>>> {
     check_points("distance matrix points", points)?;
-    Ok(points.iter().map(|a| points.iter().map(|b| sq_dist(a, b).sqrt()).collect()).collect())
+    Ok(points
+        .iter()
+        .map(|a| points.iter().map(|b| sq_dist(a, b).sqrt()).collect())
+        .collect())
 }
 
 /// Total distance of every point to its nearest medoid.
 fn pam_loss(dist: &[Vec<f64>], medoids: &[usize]) -> f64 {
-    dist.iter().map(|row| medoids.iter().map(|&m| row[m]).fold(f64::INFINITY, f64::min)).sum()
+    dist.iter()
+        .map(|row| {
+            medoids
+                .iter()
+                .map(|&m| row[m])
+                .fold(f64::INFINITY, f64::min)
+        })
+        .sum()
 }
 
 /// Checks a square, finite distance matrix and distinct, in-range initial medoids.
@@ -138,7 +190,10 @@ fn check_pam(dist: &[Vec<f64>], init: &[usize]) -> Result<()> {
     sorted.sort_unstable();
     sorted.dedup();
     if init.is_empty() || sorted.len() != init.len() || sorted.last().is_some_and(|&m| m >= n) {
-        return Err(StatsError::InvalidParameter { what: "PAM", detail: format!("initial medoids {init:?} for n = {n}") });
+        return Err(StatsError::InvalidParameter {
+            what: "PAM",
+            detail: format!("initial medoids {init:?} for n = {n}"),
+        });
     }
     Ok(())
 }
@@ -170,8 +225,16 @@ pub fn pam(dist: &[Vec<f64>], initial_medoids: &[usize], max_swaps: usize) -> Re
             _ => break,
         }
     }
-    let labels = dist.iter().map(|row| argmin(medoids.iter().map(|&m| row[m])).0).collect();
-    Ok(Pam { medoids, labels, loss, n_swaps })
+    let labels = dist
+        .iter()
+        .map(|row| argmin(medoids.iter().map(|&m| row[m])).0)
+        .collect();
+    Ok(Pam {
+        medoids,
+        labels,
+        loss,
+        n_swaps,
+    })
 }
 
 #[cfg(test)]
@@ -229,7 +292,12 @@ mod tests {
         let p = pts();
         let by_cluster: f64 = (0..3)
             .map(|c| {
-                let members: Vec<&Vec<f64>> = p.iter().zip(&km.labels).filter(|(_, l)| **l == c).map(|(x, _)| x).collect();
+                let members: Vec<&Vec<f64>> = p
+                    .iter()
+                    .zip(&km.labels)
+                    .filter(|(_, l)| **l == c)
+                    .map(|(x, _)| x)
+                    .collect();
                 (0..2)
                     .map(|d| {
                         let m = members.iter().map(|x| x[d]).sum::<f64>() / members.len() as f64;
@@ -240,7 +308,10 @@ mod tests {
             .sum();
         assert_close_tol("inertia", km.inertia, by_cluster, IDENTITY_TOL);
         assert!(kmeans_from_rows(&pts(), &[0, 99], 10).is_err());
-        assert!(matches!(kmeans(&[], &[vec![0.0]], 10), Err(StatsError::TooFewObservations { .. })));
+        assert!(matches!(
+            kmeans(&[], &[vec![0.0]], 10),
+            Err(StatsError::TooFewObservations { .. })
+        ));
         assert!(pam(&[vec![0.0, 1.0], vec![1.0, 0.0]], &[0, 0], 10).is_err());
     }
 }

@@ -54,13 +54,22 @@ pub fn summary(x: &[f64], ci_level: f64) -> Result<Summary> {
     super::error::check_level("summary", ci_level)?;
     let (m, sd, se) = (mean(x)?, std_dev(x)?, sem(x)?);
     let half = t_critical(ci_level, (x.len() - 1) as f64)? * se;
-    Ok(Summary { n: x.len(), mean: m, sd, sem: se, ci_level, ci: (m - half, m + half) })
+    Ok(Summary {
+        n: x.len(),
+        mean: m,
+        sd,
+        sem: se,
+        ci_level,
+        ci: (m - half, m + half),
+    })
 }
 
 /// Two-sided critical value t(1 − (1 − level)/2; df).
 pub(crate) fn t_critical(level: f64, df: f64) -> Result<f64> {
-    let t = StudentsT::new(0.0, 1.0, df)
-        .map_err(|e| StatsError::InvalidParameter { what: "t distribution", detail: e.to_string() })?;
+    let t = StudentsT::new(0.0, 1.0, df).map_err(|e| StatsError::InvalidParameter {
+        what: "t distribution",
+        detail: e.to_string(),
+    })?;
     Ok(t.inverse_cdf(1.0 - (1.0 - level) / 2.0))
 }
 
@@ -87,8 +96,17 @@ mod tests {
 
     #[test]
     fn errors_instead_of_panics() {
-        assert!(matches!(mean(&[]), Err(StatsError::TooFewObservations { .. })));
-        assert!(matches!(variance(&[1.0]), Err(StatsError::TooFewObservations { .. })));
-        assert!(matches!(mean(&[1.0, f64::NAN]), Err(StatsError::NonFinite { index: 1, .. })));
+        assert!(matches!(
+            mean(&[]),
+            Err(StatsError::TooFewObservations { .. })
+        ));
+        assert!(matches!(
+            variance(&[1.0]),
+            Err(StatsError::TooFewObservations { .. })
+        ));
+        assert!(matches!(
+            mean(&[1.0, f64::NAN]),
+            Err(StatsError::NonFinite { index: 1, .. })
+        ));
     }
 }

@@ -128,7 +128,10 @@ pub fn dtw(x: &[f64], y: &[f64], cost: DtwCost, band: Band) -> Result<Dtw> {
         DtwCost::SqrtOfSquared => total.sqrt(),
         DtwCost::SumAbs => total,
     };
-    Ok(Dtw { distance, path: backtrack(&d) })
+    Ok(Dtw {
+        distance,
+        path: backtrack(&d),
+    })
 }
 
 #[cfg(test)]
@@ -144,9 +147,17 @@ mod tests {
     fn both_conventions_match_references() {
         // dtaidistance.dtw.distance and tslearn.metrics.dtw (√ of squared)
         let sq = dtw(&S1, &S2, DtwCost::SqrtOfSquared, Band::None).unwrap();
-        assert_close("dtaidistance", sq.distance, r("dtw/dtaidistance_sqrt_of_squared"));
+        assert_close(
+            "dtaidistance",
+            sq.distance,
+            r("dtw/dtaidistance_sqrt_of_squared"),
+        );
         assert_close("tslearn", sq.distance, r("dtw/tslearn_sqrt_of_squared"));
-        assert_close("DP squared", sq.distance.powi(2), r("dtw/dp_squared_cost_sum"));
+        assert_close(
+            "DP squared",
+            sq.distance.powi(2),
+            r("dtw/dp_squared_cost_sum"),
+        );
         // textbook DP with |·| cost (and fastdtw radius 1, exact on this input)
         let abs = dtw(&S1, &S2, DtwCost::SumAbs, Band::None).unwrap();
         assert_close("DP abs", abs.distance, r("dtw/dp_abs_cost_sum"));
@@ -156,13 +167,16 @@ mod tests {
     #[test]
     fn path_matches_dtaidistance_and_tslearn() {
         // dtaidistance.dtw.warping_path and tslearn.metrics.dtw_path
-        let path = dtw(&S1, &S2, DtwCost::SqrtOfSquared, Band::None).unwrap().path;
+        let path = dtw(&S1, &S2, DtwCost::SqrtOfSquared, Band::None)
+            .unwrap()
+            .path;
         for key in ["dtw/path_dtaidistance", "dtw/path_tslearn"] {
-            let expected: Vec<(usize, usize)> = serde_json::from_value::<Vec<[usize; 2]>>(rv(key).clone())
-                .unwrap()
-                .into_iter()
-                .map(|[a, b]| (a, b))
-                .collect();
+            let expected: Vec<(usize, usize)> =
+                serde_json::from_value::<Vec<[usize; 2]>>(rv(key).clone())
+                    .unwrap()
+                    .into_iter()
+                    .map(|[a, b]| (a, b))
+                    .collect();
             assert_eq!(path, expected, "{key}");
         }
     }
@@ -173,7 +187,9 @@ mod tests {
         for w in 0..4 {
             let expected = r(&format!("dtw/band_equal_length/sqrt_of_squared/w{w}"));
             for shape in [BandShape::Naive, BandShape::LengthAdjusted] {
-                let got = dtw(&S1, &S4, DtwCost::SqrtOfSquared, band(w, shape)).unwrap().distance;
+                let got = dtw(&S1, &S4, DtwCost::SqrtOfSquared, band(w, shape))
+                    .unwrap()
+                    .distance;
                 assert_close(&format!("w{w} {shape:?}"), got, expected);
             }
         }
@@ -184,9 +200,23 @@ mod tests {
         for w in 0..3 {
             let base = format!("dtw/band_unequal_length/w{w}");
             // dtaidistance(window = w + 1) and tslearn(sakoe_chiba_radius = w)
-            let adj = dtw(&S1, &S5, DtwCost::SqrtOfSquared, band(w, BandShape::LengthAdjusted)).unwrap();
-            assert_close(&format!("{base} dtaidistance"), adj.distance, r(&format!("{base}/dtaidistance_window_w_plus_1")));
-            assert_close(&format!("{base} tslearn"), adj.distance, r(&format!("{base}/tslearn_radius_w")));
+            let adj = dtw(
+                &S1,
+                &S5,
+                DtwCost::SqrtOfSquared,
+                band(w, BandShape::LengthAdjusted),
+            )
+            .unwrap();
+            assert_close(
+                &format!("{base} dtaidistance"),
+                adj.distance,
+                r(&format!("{base}/dtaidistance_window_w_plus_1")),
+            );
+            assert_close(
+                &format!("{base} tslearn"),
+                adj.distance,
+                r(&format!("{base}/tslearn_radius_w")),
+            );
             // textbook DP with naive |i − j| ≤ w: null (∞) in the reference for w < 2
             let naive = dtw(&S1, &S5, DtwCost::SqrtOfSquared, band(w, BandShape::Naive));
             match rv(&format!("{base}/naive_abs_i_minus_j")).as_f64() {
@@ -195,8 +225,20 @@ mod tests {
             }
         }
         // The band shape is symmetric in the argument order.
-        let ab = dtw(&S1, &S5, DtwCost::SqrtOfSquared, band(1, BandShape::LengthAdjusted)).unwrap();
-        let ba = dtw(&S5, &S1, DtwCost::SqrtOfSquared, band(1, BandShape::LengthAdjusted)).unwrap();
+        let ab = dtw(
+            &S1,
+            &S5,
+            DtwCost::SqrtOfSquared,
+            band(1, BandShape::LengthAdjusted),
+        )
+        .unwrap();
+        let ba = dtw(
+            &S5,
+            &S1,
+            DtwCost::SqrtOfSquared,
+            band(1, BandShape::LengthAdjusted),
+        )
+        .unwrap();
         assert_close_tol("symmetric", ab.distance, ba.distance, IDENTITY_TOL);
     }
 
@@ -207,7 +249,15 @@ mod tests {
         assert_eq!(same.distance, 0.0);
         assert!(same.path.iter().all(|(i, j)| i == j));
         let wide = dtw(&S1, &S2, DtwCost::SqrtOfSquared, band(20, BandShape::Naive)).unwrap();
-        assert_close_tol("wide band", wide.distance, r("dtw/dtaidistance_sqrt_of_squared"), IDENTITY_TOL);
-        assert!(matches!(dtw(&[], &S1, DtwCost::SumAbs, Band::None), Err(StatsError::TooFewObservations { .. })));
+        assert_close_tol(
+            "wide band",
+            wide.distance,
+            r("dtw/dtaidistance_sqrt_of_squared"),
+            IDENTITY_TOL,
+        );
+        assert!(matches!(
+            dtw(&[], &S1, DtwCost::SumAbs, Band::None),
+            Err(StatsError::TooFewObservations { .. })
+        ));
     }
 }

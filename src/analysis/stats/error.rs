@@ -8,10 +8,18 @@ use thiserror::Error;
 pub enum StatsError {
     /// A group, sample or table has fewer observations than the statistic needs.
     #[error("{what}: needs at least {needed} observations, got {got}")]
-    TooFewObservations { what: &'static str, needed: usize, got: usize },
+    TooFewObservations {
+        what: &'static str,
+        needed: usize,
+        got: usize,
+    },
     /// Two inputs that must be paired element by element have different lengths.
     #[error("{what}: lengths differ ({left} vs {right})")]
-    LengthMismatch { what: &'static str, left: usize, right: usize },
+    LengthMismatch {
+        what: &'static str,
+        left: usize,
+        right: usize,
+    },
     /// The statistic divides by a variance (or a total) that is zero.
     #[error("{what}: zero variance, the statistic is undefined")]
     ZeroVariance { what: &'static str },
@@ -43,13 +51,21 @@ pub(crate) fn check_finite(what: &'static str, x: &[f64]) -> Result<(), StatsErr
 /// Checks that a sample has at least `needed` observations.
 pub(crate) fn check_len(what: &'static str, x: &[f64], needed: usize) -> Result<(), StatsError> {
     if x.len() < needed {
-        return Err(StatsError::TooFewObservations { what, needed, got: x.len() });
+        return Err(StatsError::TooFewObservations {
+            what,
+            needed,
+            got: x.len(),
+        });
     }
     Ok(())
 }
 
 /// Checks that two paired inputs have the same length.
-pub(crate) fn check_same_len(what: &'static str, left: usize, right: usize) -> Result<(), StatsError> {
+pub(crate) fn check_same_len(
+    what: &'static str,
+    left: usize,
+    right: usize,
+) -> Result<(), StatsError> {
     if left != right {
         return Err(StatsError::LengthMismatch { what, left, right });
     }
@@ -59,7 +75,10 @@ pub(crate) fn check_same_len(what: &'static str, left: usize, right: usize) -> R
 /// Checks that a probability-like parameter is in the open/closed interval the caller needs.
 pub(crate) fn check_level(what: &'static str, level: f64) -> Result<(), StatsError> {
     if !(level > 0.0 && level < 1.0) {
-        return Err(StatsError::InvalidParameter { what, detail: format!("level {level} not in (0, 1)") });
+        return Err(StatsError::InvalidParameter {
+            what,
+            detail: format!("level {level} not in (0, 1)"),
+        });
     }
     Ok(())
 }

@@ -29,11 +29,19 @@ pub fn unbiased_hit_rates(cm: &ConfusionMatrix) -> Vec<HitRate> {
     let n = cm.total() as f64;
     (0..cm.labels.len())
         .map(|i| {
-            let (hit, row, col) = (cm.counts[i][i] as f64, cm.row_sum(i) as f64, cm.col_sum(i) as f64);
+            let (hit, row, col) = (
+                cm.counts[i][i] as f64,
+                cm.row_sum(i) as f64,
+                cm.col_sum(i) as f64,
+            );
             HitRate {
                 label: cm.labels[i].clone(),
                 raw: if row > 0.0 { hit / row } else { 0.0 },
-                hu: if row * col > 0.0 { hit * hit / (row * col) } else { 0.0 },
+                hu: if row * col > 0.0 {
+                    hit * hit / (row * col)
+                } else {
+                    0.0
+                },
                 chance: if n > 0.0 { row * col / (n * n) } else { 0.0 },
             }
         })
@@ -76,6 +84,11 @@ mod tests {
         // Hu ≤ raw hit rate, and a perfect judge gets Hu = 1.
         let perfect = ConfusionMatrix::from_labels(&EMO, &EMO, &EMO).unwrap();
         assert!(unbiased_hit_rates(&perfect).iter().all(|h| h.hu == 1.0));
-        assert_close_tol("asin(1)", arcsine(1.0), std::f64::consts::FRAC_PI_2, IDENTITY_TOL);
+        assert_close_tol(
+            "asin(1)",
+            arcsine(1.0),
+            std::f64::consts::FRAC_PI_2,
+            IDENTITY_TOL,
+        );
     }
 }

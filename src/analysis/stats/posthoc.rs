@@ -41,8 +41,17 @@ pub fn scheffe(groups: &[&[f64]]) -> Result<Vec<Pairwise>> {
     pairs(groups.len())
         .map(|(i, j)| {
             let diff = pooled.means[i] - pooled.means[j];
-            let f = diff * diff / (msw * (1.0 / pooled.ns[i] as f64 + 1.0 / pooled.ns[j] as f64)) / (k - 1.0);
-            Ok(Pairwise { i, j, mean_diff: diff, statistic: f, p: f_sf(f, k - 1.0, pooled.df_within)?, ci: None })
+            let f = diff * diff
+                / (msw * (1.0 / pooled.ns[i] as f64 + 1.0 / pooled.ns[j] as f64))
+                / (k - 1.0);
+            Ok(Pairwise {
+                i,
+                j,
+                mean_diff: diff,
+                statistic: f,
+                p: f_sf(f, k - 1.0, pooled.df_within)?,
+                ci: None,
+            })
         })
         .collect()
 }
@@ -60,13 +69,26 @@ pub fn tukey_hsd(groups: &[&[f64]], ci_level: f64) -> Result<Vec<Pairwise>> {
             let se = (msw / 2.0 * (1.0 / pooled.ns[i] as f64 + 1.0 / pooled.ns[j] as f64)).sqrt();
             let q = diff.abs() / se;
             let p = studentized_range::sf(q, k, pooled.df_within)?;
-            Ok(Pairwise { i, j, mean_diff: diff, statistic: q, p, ci: Some((diff - q_crit * se, diff + q_crit * se)) })
+            Ok(Pairwise {
+                i,
+                j,
+                mean_diff: diff,
+                statistic: q,
+                p,
+                ci: Some((diff - q_crit * se, diff + q_crit * se)),
+            })
         })
         .collect()
 }
 
 fn nonzero_msw(msw: f64) -> Result<f64> {
-    if msw > 0.0 { Ok(msw) } else { Err(StatsError::ZeroVariance { what: "post hoc (MS within)" }) }
+    if msw > 0.0 {
+        Ok(msw)
+    } else {
+        Err(StatsError::ZeroVariance {
+            what: "post hoc (MS within)",
+        })
+    }
 }
 
 #[cfg(test)]
@@ -80,7 +102,11 @@ mod tests {
         let res = scheffe(&[&G1, &G2, &G3]).unwrap();
         // scikit-posthocs posthoc_scheffe (p); F from the textbook formula, cross-checked in the script
         for (c, name) in res.iter().zip(["g1-g2", "g1-g3", "g2-g3"]) {
-            assert_close(&format!("{name} F"), c.statistic, r(&format!("scheffe/{name}/F_scheffe")));
+            assert_close(
+                &format!("{name} F"),
+                c.statistic,
+                r(&format!("scheffe/{name}/F_scheffe")),
+            );
             assert_close(&format!("{name} p"), c.p, r(&format!("scheffe/{name}/p")));
         }
     }
@@ -90,7 +116,12 @@ mod tests {
         // Identity: with k = 2, q = √2 |t| and Tukey's p equals Student's two-sided p.
         let res = tukey_hsd(&[&A, &B], 0.95).unwrap();
         let t = student_t(&A, &B, 0.95).unwrap();
-        assert_close_tol("q = √2 |t|", res[0].statistic, 2f64.sqrt() * t.t.abs(), IDENTITY_TOL);
+        assert_close_tol(
+            "q = √2 |t|",
+            res[0].statistic,
+            2f64.sqrt() * t.t.abs(),
+            IDENTITY_TOL,
+        );
         assert_close_tol("p", res[0].p, t.p_two_sided, 1e-8);
         let (lo, hi) = res[0].ci.unwrap();
         assert_close_tol("CI", lo, t.ci.0, 1e-8);
@@ -109,7 +140,11 @@ mod tests {
     fn tukey_p_is_at_most_scheffe_p() {
         // Scheffé is the more conservative procedure for pairwise contrasts.
         let groups: [&[f64]; 3] = [&G1, &G2, &G3];
-        for (t, s) in tukey_hsd(&groups, 0.95).unwrap().iter().zip(scheffe(&groups).unwrap()) {
+        for (t, s) in tukey_hsd(&groups, 0.95)
+            .unwrap()
+            .iter()
+            .zip(scheffe(&groups).unwrap())
+        {
             assert!(t.p <= s.p, "tukey {} vs scheffe {}", t.p, s.p);
         }
     }

@@ -23,7 +23,11 @@ pub const IDENTITY_TOL: f64 = 1e-9;
 /// Asserts `|got - expected| <= tol * |expected|` (relative); absolute `tol` when expected is 0.
 #[track_caller]
 pub fn assert_close_tol(what: &str, got: f64, expected: f64, tol: f64) {
-    let bound = if expected == 0.0 { tol } else { tol * expected.abs() };
+    let bound = if expected == 0.0 {
+        tol
+    } else {
+        tol * expected.abs()
+    };
     assert!(
         (got - expected).abs() <= bound,
         "{what}: expected {expected:e}, got {got:e} (diff {:e}, bound {bound:e})",
@@ -40,7 +44,10 @@ pub fn assert_close(what: &str, got: f64, expected: f64) {
 /// Asserts agreement within an absolute tolerance (for rounded published tables).
 #[track_caller]
 pub fn assert_abs(what: &str, got: f64, expected: f64, tol: f64) {
-    assert!((got - expected).abs() <= tol, "{what}: expected {expected}, got {got} (tol {tol})");
+    assert!(
+        (got - expected).abs() <= tol,
+        "{what}: expected {expected}, got {got} (tol {tol})"
+    );
 }
 
 /// The reference JSON, parsed once.
@@ -66,17 +73,28 @@ pub fn r(path: &str) -> f64 {
 #[track_caller]
 pub fn rv(path: &str) -> &'static serde_json::Value {
     let ptr = format!("/{path}");
-    reference().pointer(&ptr).unwrap_or_else(|| panic!("reference value {path} missing"))
+    reference()
+        .pointer(&ptr)
+        .unwrap_or_else(|| panic!("reference value {path} missing"))
 }
 
 // ---------------------------------------------------------------- inputs (from stats_reference.py)
 
 /// Likert items, rows = participants, columns = items (`ITEMS`).
 pub fn items() -> Vec<Vec<f64>> {
-    [[4, 5, 4, 3], [3, 4, 3, 3], [5, 5, 4, 4], [2, 3, 2, 3], [4, 4, 5, 4], [3, 2, 3, 2], [5, 4, 5, 5], [1, 2, 2, 1]]
-        .iter()
-        .map(|row| row.iter().map(|&v| f64::from(v)).collect())
-        .collect()
+    [
+        [4, 5, 4, 3],
+        [3, 4, 3, 3],
+        [5, 5, 4, 4],
+        [2, 3, 2, 3],
+        [4, 4, 5, 4],
+        [3, 2, 3, 2],
+        [5, 4, 5, 5],
+        [1, 2, 2, 1],
+    ]
+    .iter()
+    .map(|row| row.iter().map(|&v| f64::from(v)).collect())
+    .collect()
 }
 
 /// Condition A (`A`).
@@ -119,15 +137,20 @@ pub fn rm_wide() -> Vec<Vec<f64>> {
 }
 
 /// Emotion label set (`EMO`).
-pub const EMO: [&str; 7] = ["anger", "disgust", "fear", "happy", "neutral", "sad", "surprise"];
+pub const EMO: [&str; 7] = [
+    "anger", "disgust", "fear", "happy", "neutral", "sad", "surprise",
+];
 /// True labels (`Y_TRUE`).
 pub const Y_TRUE: [&str; 20] = [
-    "happy", "happy", "sad", "anger", "fear", "surprise", "neutral", "disgust", "sad", "happy", //
-    "fear", "surprise", "anger", "neutral", "disgust", "sad", "happy", "fear", "surprise", "neutral",
+    "happy", "happy", "sad", "anger", "fear", "surprise", "neutral", "disgust", "sad",
+    "happy", //
+    "fear", "surprise", "anger", "neutral", "disgust", "sad", "happy", "fear", "surprise",
+    "neutral",
 ];
 /// Predicted labels (`Y_PRED`).
 pub const Y_PRED: [&str; 20] = [
-    "happy", "neutral", "sad", "disgust", "surprise", "surprise", "neutral", "anger", "fear", "happy", //
+    "happy", "neutral", "sad", "disgust", "surprise", "surprise", "neutral", "anger", "fear",
+    "happy", //
     "fear", "fear", "anger", "neutral", "disgust", "sad", "happy", "surprise", "surprise", "sad",
 ];
 
@@ -140,8 +163,19 @@ pub const S5: [f64; 11] = [0.0, 0.0, 0.0, 0.0, 0.1, 0.4, 0.9, 1.0, 0.8, 0.3, 0.1
 /// Points for clustering (`PTS`); initial rows 0, 4, 8 (`INIT`).
 pub fn pts() -> Vec<Vec<f64>> {
     [
-        [1.0, 1.1], [1.2, 0.9], [0.8, 1.0], [1.1, 1.3], [5.0, 5.2], [5.3, 4.9], [4.8, 5.1], [5.1, 5.4],
-        [9.0, 1.0], [9.2, 1.3], [8.7, 0.8], [9.1, 0.9], [3.0, 3.0],
+        [1.0, 1.1],
+        [1.2, 0.9],
+        [0.8, 1.0],
+        [1.1, 1.3],
+        [5.0, 5.2],
+        [5.3, 4.9],
+        [4.8, 5.1],
+        [5.1, 5.4],
+        [9.0, 1.0],
+        [9.2, 1.3],
+        [8.7, 0.8],
+        [9.1, 0.9],
+        [3.0, 3.0],
     ]
     .iter()
     .map(|p| p.to_vec())

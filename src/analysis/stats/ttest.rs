@@ -50,8 +50,10 @@ pub struct TTest {
 
 /// Two-sided p-value of `t` under Student's t with `df` degrees of freedom.
 pub(crate) fn t_two_sided_p(t: f64, df: f64) -> Result<f64> {
-    let dist = StudentsT::new(0.0, 1.0, df)
-        .map_err(|e| StatsError::InvalidParameter { what: "t distribution", detail: e.to_string() })?;
+    let dist = StudentsT::new(0.0, 1.0, df).map_err(|e| StatsError::InvalidParameter {
+        what: "t distribution",
+        detail: e.to_string(),
+    })?;
     Ok((2.0 * dist.sf(t.abs())).min(1.0))
 }
 
@@ -71,7 +73,15 @@ fn pooled_sd(x: &[f64], y: &[f64]) -> Result<f64> {
 
 /// Builds the result from the pieces every t-test shares.
 #[allow(clippy::too_many_arguments)]
-fn finish(kind: TTestKind, diff: f64, se: f64, df: f64, level: f64, d: f64, dz: Option<f64>) -> Result<TTest> {
+fn finish(
+    kind: TTestKind,
+    diff: f64,
+    se: f64,
+    df: f64,
+    level: f64,
+    d: f64,
+    dz: Option<f64>,
+) -> Result<TTest> {
     if se == 0.0 {
         return Err(StatsError::ZeroVariance { what: "t-test" });
     }
@@ -99,7 +109,15 @@ pub fn student_t(x: &[f64], y: &[f64], ci_level: f64) -> Result<TTest> {
     let sp = pooled_sd(x, y)?;
     let diff = mean(x)? - mean(y)?;
     let se = sp * (1.0 / n1 + 1.0 / n2).sqrt();
-    finish(TTestKind::Student, diff, se, n1 + n2 - 2.0, ci_level, diff / sp, None)
+    finish(
+        TTestKind::Student,
+        diff,
+        se,
+        n1 + n2 - 2.0,
+        ci_level,
+        diff / sp,
+        None,
+    )
 }
 
 /// Welch's t-test (unequal variances), Welch–Satterthwaite df.
@@ -110,7 +128,15 @@ pub fn welch_t(x: &[f64], y: &[f64], ci_level: f64) -> Result<TTest> {
     let df = (a + b).powi(2) / (a * a / (x.len() - 1) as f64 + b * b / (y.len() - 1) as f64);
     let diff = mean(x)? - mean(y)?;
     let sp = pooled_sd(x, y)?;
-    finish(TTestKind::Welch, diff, (a + b).sqrt(), df, ci_level, diff / sp, None)
+    finish(
+        TTestKind::Welch,
+        diff,
+        (a + b).sqrt(),
+        df,
+        ci_level,
+        diff / sp,
+        None,
+    )
 }
 
 /// Paired t-test on x − y, df = n − 1.
@@ -123,7 +149,15 @@ pub fn paired_t(x: &[f64], y: &[f64], ci_level: f64) -> Result<TTest> {
     let (md, sd_d) = (mean(&d)?, variance(&d)?.sqrt());
     let d_av = md / ((variance(x)? + variance(y)?) / 2.0).sqrt();
     let dz = if sd_d > 0.0 { Some(md / sd_d) } else { None };
-    finish(TTestKind::Paired, md, sd_d / n.sqrt(), n - 1.0, ci_level, d_av, dz)
+    finish(
+        TTestKind::Paired,
+        md,
+        sd_d / n.sqrt(),
+        n - 1.0,
+        ci_level,
+        d_av,
+        dz,
+    )
 }
 
 #[cfg(test)]
@@ -165,7 +199,11 @@ mod tests {
     #[test]
     fn ci_excludes_zero_iff_p_below_alpha() {
         // Identity: the (1 − α) CI of the difference excludes 0 exactly when p < α.
-        for r_ in [student_t(&A, &B, 0.95), welch_t(&A, &B, 0.95), paired_t(&PRE, &POST, 0.95)] {
+        for r_ in [
+            student_t(&A, &B, 0.95),
+            welch_t(&A, &B, 0.95),
+            paired_t(&PRE, &POST, 0.95),
+        ] {
             let r_ = r_.unwrap();
             let excludes = r_.ci.0 > 0.0 || r_.ci.1 < 0.0;
             assert_eq!(excludes, r_.p_two_sided < 0.05, "{r_:?}");
@@ -186,9 +224,21 @@ mod tests {
 
     #[test]
     fn typed_errors() {
-        assert!(matches!(paired_t(&PRE, &A[..3], 0.95), Err(StatsError::LengthMismatch { .. })));
-        assert!(matches!(student_t(&[1.0], &B, 0.95), Err(StatsError::TooFewObservations { .. })));
-        assert!(matches!(student_t(&[1.0, 1.0], &[1.0, 1.0], 0.95), Err(StatsError::ZeroVariance { .. })));
-        assert!(matches!(student_t(&A, &B, 1.5), Err(StatsError::InvalidParameter { .. })));
+        assert!(matches!(
+            paired_t(&PRE, &A[..3], 0.95),
+            Err(StatsError::LengthMismatch { .. })
+        ));
+        assert!(matches!(
+            student_t(&[1.0], &B, 0.95),
+            Err(StatsError::TooFewObservations { .. })
+        ));
+        assert!(matches!(
+            student_t(&[1.0, 1.0], &[1.0, 1.0], 0.95),
+            Err(StatsError::ZeroVariance { .. })
+        ));
+        assert!(matches!(
+            student_t(&A, &B, 1.5),
+            Err(StatsError::InvalidParameter { .. })
+        ));
     }
 }
