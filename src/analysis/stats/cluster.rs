@@ -10,6 +10,9 @@
 //!   package's `pam`): at each step apply the single medoid/non-medoid swap that lowers the total
 //!   distance most; stop when no swap lowers it. Labels index into `medoids` (nearest medoid, ties
 //!   → lowest index); loss = Σ distances to the nearest medoid.
+//! - [`pam_build`]: PAM's deterministic BUILD initialisation (Kaufman & Rousseeuw 1990): first
+//!   the point with the smallest total distance, then repeatedly the point that lowers the loss
+//!   most (ties → lowest index), as scikit-learn-extra's `KMedoids(init="build")`.
 
 use super::error::check_finite;
 use super::{Result, StatsError};
@@ -237,6 +240,38 @@ pub fn pam(dist: &[Vec<f64>], initial_medoids: &[usize], max_swaps: usize) -> Re
     })
 }
 
+/// PAM BUILD: `k` deterministic initial medoids for [`pam`] (see the module doc).
+pub fn pam_build(dist: &[Vec<f64>], k: usize) -> Result<Vec<usize>> {
+    let n = dist.len();
+    if k == 0 || k > n {
+        return Err(StatsError::InvalidParameter {
+            what: "PAM BUILD",
+            detail: format!("k = {k} for n = {n}"),
+        });
+    }
+    check_pam(dist, &[0])?;
+    let first = argmin(dist.iter().map(|row| row.iter().sum::<f64>())).0;
+    let mut medoids = vec![first];
+    let mut nearest: Vec<f64> = dist.iter().map(|row| row[first]).collect();
+    while medoids.len() < k {
+        let gain = |c: usize| -> f64 {
+            if medoids.contains(&c) {
+                return f64::NEG_INFINITY;
+            }
+            dist.iter()
+                .zip(&nearest)
+                .map(|(row, &d)| (d - row[c]).max(0.0))
+                .sum()
+        };
+        let best = argmin((0..n).map(|c| -gain(c))).0;
+        medoids.push(best);
+        for (d, row) in nearest.iter_mut().zip(dist) {
+            *d = d.min(row[best]);
+        }
+    }
+    Ok(medoids)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -273,6 +308,17 @@ mod tests {
         assert_eq!(medoids, usizes("kmedoids/pam_medoids"));
         assert_close("loss", res.loss, r("kmedoids/pam_loss_sum_dist"));
         assert_eq!(res.labels, usizes("kmedoids/labels"));
+    }
+
+    #[test]
+    fn build_then_swap_matches_scikit_learn_extra() {
+        // scikit-learn-extra KMedoids(method="pam", init="build") medoids: [0, 4, 8]
+        let d = euclidean_distances(&pts()).unwrap();
+        let init = pam_build(&d, 3).unwrap();
+        let mut medoids = pam(&d, &init, 100).unwrap().medoids;
+        medoids.sort_unstable();
+        assert_eq!(medoids, usizes("kmedoids/sklearn_extra_pam_medoids"));
+        assert!(pam_build(&d, 14).is_err());
     }
 
     #[test]
