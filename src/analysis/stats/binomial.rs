@@ -125,6 +125,35 @@ mod tests {
     }
 
     #[test]
+    fn matches_scipy_binomtest() {
+        // scipy.stats.binomtest(k, n, p0, alternative=…).pvalue (scipy 1.17.1)
+        for (i, c) in scipy_extra()["binomtest"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .enumerate()
+        {
+            let (k, n, p0) = (
+                c["k"].as_u64().unwrap(),
+                c["n"].as_u64().unwrap(),
+                c["p0"].as_f64().unwrap(),
+            );
+            for (alt, key) in [
+                (Alternative::TwoSided, "two_sided"),
+                (Alternative::Greater, "greater"),
+                (Alternative::Less, "less"),
+            ] {
+                let got = binomial_test(k, n, p0, alt).unwrap().p_value;
+                assert_close(
+                    &format!("{k}/{n} {key}"),
+                    got,
+                    sx(&format!("binomtest/{i}/{key}")),
+                );
+            }
+        }
+    }
+
+    #[test]
     fn symmetric_case_and_errors() {
         // Identity: with p0 = 1/2 the two-sided p is twice the smaller tail (capped at 1).
         let two = binomial_test(3, 10, 0.5, Alternative::TwoSided)

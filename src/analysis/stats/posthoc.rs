@@ -112,6 +112,24 @@ mod tests {
     }
 
     #[test]
+    fn tukey_matches_scipy() {
+        // scipy.stats.tukey_hsd(G1, G2, G3) and .confidence_interval(0.95) (scipy 1.17.1)
+        let res = tukey_hsd(&[&G1, &G2, &G3], 0.95).unwrap();
+        for (c, name) in res.iter().zip(["g1-g2", "g1-g3", "g2-g3"]) {
+            let base = format!("tukey_hsd/{name}");
+            assert_close(
+                &format!("{name} diff"),
+                c.mean_diff,
+                sx(&format!("{base}/mean_diff")),
+            );
+            assert_close(&format!("{name} p"), c.p, sx(&format!("{base}/p")));
+            let (lo, hi) = c.ci.unwrap();
+            assert_close(&format!("{name} lo"), lo, sx(&format!("{base}/ci95/0")));
+            assert_close(&format!("{name} hi"), hi, sx(&format!("{base}/ci95/1")));
+        }
+    }
+
+    #[test]
     fn tukey_with_two_groups_equals_student_t() {
         // Identity: with k = 2, q = √2 |t| and Tukey's p equals Student's two-sided p.
         let res = tukey_hsd(&[&A, &B], 0.95).unwrap();

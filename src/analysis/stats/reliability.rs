@@ -233,6 +233,14 @@ mod tests {
     }
 
     #[test]
+    fn feldt_ci_unrounded_matches_scipy() {
+        // pingouin's Feldt formula evaluated with scipy.stats.f.isf (scipy 1.17.1), not rounded
+        let a = cronbach_alpha(&items(), 0.95).unwrap();
+        assert_close("ci low", a.ci.0, sx("cronbach_feldt_ci95_unrounded/0"));
+        assert_close("ci high", a.ci.1, sx("cronbach_feldt_ci95_unrounded/1"));
+    }
+
+    #[test]
     fn cronbach_two_items_is_spearman_brown_of_covariance() {
         // Identity: for k = 2, α = 4 cov(x, y) / var(x + y).
         let rows: Vec<Vec<f64>> = PRE.iter().zip(&POST).map(|(a, b)| vec![*a, *b]).collect();

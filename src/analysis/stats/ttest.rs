@@ -197,6 +197,28 @@ mod tests {
     }
 
     #[test]
+    fn ci_matches_scipy() {
+        // scipy.stats.ttest_ind(…).confidence_interval(0.95) / ttest_rel (scipy 1.17.1)
+        let cases = [
+            (student_t(&A, &B, 0.95).unwrap(), "student"),
+            (welch_t(&A, &B, 0.95).unwrap(), "welch"),
+            (paired_t(&PRE, &POST, 0.95).unwrap(), "paired"),
+        ];
+        for (t, key) in cases {
+            assert_close(
+                &format!("{key} lo"),
+                t.ci.0,
+                sx(&format!("ttest_ci95/{key}/0")),
+            );
+            assert_close(
+                &format!("{key} hi"),
+                t.ci.1,
+                sx(&format!("ttest_ci95/{key}/1")),
+            );
+        }
+    }
+
+    #[test]
     fn ci_excludes_zero_iff_p_below_alpha() {
         // Identity: the (1 − α) CI of the difference excludes 0 exactly when p < α.
         for r_ in [
