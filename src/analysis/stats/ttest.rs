@@ -72,7 +72,6 @@ fn pooled_sd(x: &[f64], y: &[f64]) -> Result<f64> {
 }
 
 /// Builds the result from the pieces every t-test shares.
-#[allow(clippy::too_many_arguments)]
 fn finish(
     kind: TTestKind,
     diff: f64,
