@@ -1,1 +1,23 @@
-//! Analysis: responses + ground truth in, statistics out. Knows nothing of HTTP or SQLite.
+//! Analysis: responses + ground truth in, statistics out.
+//!
+//! **What comes in:** plain Rust data — slices of observations, group vectors, label sequences,
+//! confusion counts, time series — already extracted from the long-format responses and the
+//! stimulus manifest by the caller.
+//!
+//! **What goes out:** plain result structs (t, df, p, effect sizes, confidence intervals, ANOVA
+//! tables, agreement coefficients, classification metrics, DTW distances and paths, cluster
+//! assignments) that the report serialises.
+//!
+//! **Architecture invariants:**
+//! - knows nothing of HTTP or SQLite: the CLI (`facslab analyze`) and the server both call it;
+//! - never panics on data: bad input (empty groups, mismatched lengths, zero variance, non-finite
+//!   values, unknown labels) comes back as a typed [`stats::StatsError`];
+//! - every public function documents its convention (sample vs population variance, which
+//!   Cohen's d, SS type and contrasts, averaging, zero-division, DTW cost and band shape …),
+//!   because the same name means different numbers in different libraries;
+//! - distributions (t, F, χ², normal, binomial) come from `statrs`; everything built on top of
+//!   them (tests, effect sizes, ANOVA, the studentized range) lives here and is checked against
+//!   the reference values in `tests/fixtures/stats/` (scipy, statsmodels, pingouin,
+//!   scikit-learn, dtaidistance, tslearn, kmedoids).
+
+pub mod stats;
