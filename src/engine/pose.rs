@@ -120,9 +120,9 @@ pub fn pose(model: &FaceModel, prepared: &PreparedIdentity, values: &ChannelValu
         match channel {
             Channel::Target(name) => {
                 let left_of = |i: usize| smoothstep(-MIDLINE_BLEND / 2.0, MIDLINE_BLEND / 2.0, model.rest[i].x);
-                let one_sided = values.is_one_sided(channel);
+                let whole = values.applies_whole(channel);
                 let weight = |i: usize| {
-                    if one_sided || left == right {
+                    if whole || left == right {
                         left.max(right)
                     } else {
                         let l = left_of(i);
@@ -329,13 +329,22 @@ mod tests {
         assert_eq!(posed.eyes[0].gaze, Vec3::Z);
     }
 
+    /// Every one-sided AU (but AU30, whose prefix is a direction) moves the skin on its own
+    /// side, and the other side less than a fifth as much (summed vertex displacement).
     #[test]
     fn a_unilateral_au_moves_its_own_side() {
-        for expression in ["L12", "L1", "L4", "L43"] {
-            let (posed, prepared) = posed(expression);
-            let own = displacement(&posed, &prepared, Side::Left);
-            let other = displacement(&posed, &prepared, Side::Right);
-            assert!(own > 0.0 && other < own / 5.0, "{expression}: own {own}, other {other}");
+        let basis = AuBasis::built_in();
+        for unit in Catalog::built_in().iter().filter(|u| u.unilateral) {
+            if basis.get(unit.code).is_some_and(|rig| rig.direction) {
+                continue;
+            }
+            for (prefix, own_side, other_side) in [("L", Side::Left, Side::Right), ("R", Side::Right, Side::Left)] {
+                let expression = format!("{prefix}{}", unit.code);
+                let (posed, prepared) = posed(&expression);
+                let own = displacement(&posed, &prepared, own_side);
+                let other = displacement(&posed, &prepared, other_side);
+                assert!(own > 0.0 && other < own / 5.0, "{expression}: own {own}, other {other}");
+            }
         }
     }
 

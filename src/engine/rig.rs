@@ -169,17 +169,21 @@ impl AuBasis {
     /// HapFACS Eq. 1: the value of every channel on each side for `expression`.
     pub fn channel_values(&self, expression: &Expression) -> Result<ChannelValues, RigError> {
         let mut sums: BTreeMap<(Channel, Side), (f32, f32)> = BTreeMap::new();
+        let mut unilateral = std::collections::BTreeSet::new();
         for activation in expression.activations() {
             let rig = self.get(activation.au).ok_or(RigError::Missing(activation.au))?;
             let strength = activation.strength() as f32;
             for (use_, side) in driven(rig, activation.side) {
+                if activation.side != Laterality::Both && !rig.direction {
+                    unilateral.insert(use_.channel.clone());
+                }
                 let entry = sums.entry((use_.channel.clone(), side)).or_insert((0.0, f32::INFINITY));
                 entry.0 += strength * use_.max;
                 entry.1 = entry.1.min(use_.max.abs());
             }
         }
         let values = sums.into_iter().map(|(key, (sum, limit))| (key, sum.clamp(-limit, limit))).collect();
-        Ok(ChannelValues { values, one_sided: self.one_sided.clone() })
+        Ok(ChannelValues { values, one_sided: self.one_sided.clone(), unilateral })
     }
 }
 
@@ -212,6 +216,8 @@ fn driven(rig: &AuRig, laterality: Laterality) -> Vec<(&ChannelUse, Side)> {
 pub struct ChannelValues {
     values: BTreeMap<(Channel, Side), f32>,
     one_sided: std::collections::BTreeSet<Channel>,
+    /// Channels driven by a one-sided activation (their effect is kept to that side).
+    unilateral: std::collections::BTreeSet<Channel>,
 }
 
 impl ChannelValues {
@@ -224,10 +230,12 @@ impl ChannelValues {
         (self.get(channel, Side::Left) + self.get(channel, Side::Right)) / 2.0
     }
 
-    /// Whether `channel` belongs to one side of the face (an ARKit Left/Right target), so that
-    /// it applies unmasked; symmetric channels are blended across the midline by side.
-    pub fn is_one_sided(&self, channel: &Channel) -> bool {
-        self.one_sided.contains(channel)
+    /// Whether `channel` applies whole: a one-sided target (an ARKit Left/Right pair member)
+    /// driven only by bilateral activations, whose two halves together make the bilateral
+    /// movement. Otherwise a channel is blended across the midline by side, so that a
+    /// unilateral AU stays on its own side.
+    pub fn applies_whole(&self, channel: &Channel) -> bool {
+        self.one_sided.contains(channel) && !self.unilateral.contains(channel)
     }
 
     /// Every non-rigid channel with its (left, right) values, in a fixed order.
@@ -303,7 +311,7 @@ mod tests {
     fn unilateral_aus_drive_their_own_side_only() {
         let v = values("L1");
         let inner = target("faceunits/browInnerUp");
-        assert_eq!((v.get(&inner, Side::Left), v.get(&inner, Side::Right)), (1.0, 0.0));
+        assert_eq!((v.get(&inner, Side::Left), v.get(&inner, Side::Right)), (1.5, 0.0));
         let v = values("R12");
         assert_eq!(v.get(&target("faceunits/mouthSmileLeft"), Side::Left), 0.0);
         assert_eq!(v.get(&target("faceunits/mouthSmileRight"), Side::Right), 1.0);
@@ -320,7 +328,7 @@ mod tests {
     #[test]
     fn rigid_channels_average_the_sides() {
         assert_eq!(values("51").rigid(&Channel::HeadYaw), 30.0);
-        assert_eq!(values("L16").rigid(&Channel::JawOpen), 1.0);
+        assert_eq!(values("19B").rigid(&Channel::JawOpen), 0.3 * 6.0);
         assert!(values("0").sided().is_empty());
     }
 }

@@ -264,7 +264,7 @@ fn brow_mask(rest: Vec3) -> f32 {
         return 0.0;
     }
     let t = t.clamp(0.0, 1.0);
-    let centre = 7.47 + 0.075 * (std::f32::consts::PI * t.powf(0.7)).sin() - 0.03 * t;
+    let centre = 7.44 + 0.07 * (std::f32::consts::PI * t.powf(0.7)).sin() - 0.035 * t;
     let half = 0.030 * (1.0 - 0.55 * t) + 0.006;
     let across = (rest.y - centre) / half;
     // Strands lean outward and upward near the head of the brow, outward along the tail.
@@ -450,8 +450,8 @@ mod tests {
 
     #[test]
     fn brows_sit_above_the_eyes_and_not_on_the_forehead() {
-        assert!(brow_mask(Vec3::new(0.3, 7.53, 1.4)) > 0.5);
-        assert!(brow_mask(Vec3::new(-0.3, 7.53, 1.4)) > 0.5);
+        assert!(brow_mask(Vec3::new(0.3, 7.50, 1.4)) > 0.5);
+        assert!(brow_mask(Vec3::new(-0.3, 7.50, 1.4)) > 0.5);
         assert_eq!(brow_mask(Vec3::new(0.3, 7.8, 1.4)), 0.0);
         assert_eq!(brow_mask(Vec3::new(0.0, 7.5, 1.5)), 0.0);
     }
