@@ -13,6 +13,9 @@ use serde::Deserialize;
 
 use super::asset::FaceModel;
 
+/// How far the resting upper lids are lifted (fraction of the eyeWide targets).
+const NEUTRAL_LID_LIFT: f32 = 0.3;
+
 /// Problems with an identity table.
 #[derive(Debug, thiserror::Error)]
 pub enum IdentityError {
@@ -110,6 +113,8 @@ impl Identity {
             }
         }
         weights.extend(self.shape.iter().map(|(name, w)| (name.clone(), *w)));
+        // The base mesh's resting lids sit low over the iris; open them a little for everyone.
+        weights.extend(["faceunits/eyeWideLeft", "faceunits/eyeWideRight"].map(|n| (n.to_string(), NEUTRAL_LID_LIFT)));
         weights
     }
 }

@@ -19,7 +19,8 @@ use glam::{Vec2, Vec3};
 use super::asset::{FaceModel, Part};
 use super::identity::Identity;
 use super::pose::Posed;
-use super::raster::{Fragment, Shader};
+use super::camera::Camera;
+use super::raster::{self, Fragment, RenderOptions, SampleCount, Shader, Triangles};
 
 /// Per-vertex region weights the shader reads.
 struct Regions {
@@ -46,7 +47,7 @@ struct Light {
 /// sky/ground ambient term.
 fn lights() -> [Light; 3] {
     [
-        Light { direction: Vec3::new(-0.5, 0.5, 0.71).normalize(), colour: Vec3::new(1.25, 1.17, 1.08) },
+        Light { direction: key_light_direction(), colour: Vec3::new(1.3, 1.21, 1.12) },
         Light { direction: Vec3::new(0.75, 0.0, 0.65).normalize(), colour: Vec3::new(0.22, 0.24, 0.28) },
         Light { direction: Vec3::new(0.3, 0.6, -0.75).normalize(), colour: Vec3::new(0.35, 0.35, 0.35) },
     ]
@@ -55,8 +56,56 @@ fn lights() -> [Light; 3] {
 const SKY: Vec3 = Vec3::new(0.16, 0.17, 0.19);
 const GROUND: Vec3 = Vec3::new(0.07, 0.06, 0.055);
 
+/// Depth of the head as seen from the key light, for cast shadows (the nose on the cheek, the
+/// brow ridge on the eyes, the chin on the neck).
+pub struct ShadowMap {
+    camera: Camera,
+    distance: Vec<f32>,
+}
+
+impl ShadowMap {
+    /// Renders the depth of `scene` from the key light, aimed at `centre`.
+    pub fn new(scene: &[Triangles], centre: Vec3, size: u32, threads: Option<usize>) -> ShadowMap {
+        let camera = Camera {
+            eye: centre + key_light_direction() * 60.0,
+            target: centre,
+            up: Vec3::Y,
+            fov_y_degrees: 3.6,
+            width: size,
+            height: size,
+        };
+        let options = RenderOptions { samples_per_pixel: SampleCount::X1, threads, backface_culling: false };
+        let visibility = raster::visibility(scene, &camera, &options);
+        let distance = visibility.samples.iter().map(|hit| hit.map_or(f32::INFINITY, |h| h.distance)).collect();
+        ShadowMap { camera, distance }
+    }
+
+    /// Fraction of the key light reaching `position` (0 = in shadow), softened over 5×5 texels.
+    fn light(&self, position: Vec3) -> f32 {
+        let Some(p) = self.camera.project(position) else { return 1.0 };
+        let (w, h) = (self.camera.width as i32, self.camera.height as i32);
+        let (cx, cy) = (p.x.floor() as i32, p.y.floor() as i32);
+        let bias = 0.02;
+        let mut lit = 0;
+        for dy in -2..=2 {
+            for dx in -2..=2 {
+                let (x, y) = ((cx + dx).clamp(0, w - 1), (cy + dy).clamp(0, h - 1));
+                if p.z <= self.distance[(y * w + x) as usize] + bias {
+                    lit += 1;
+                }
+            }
+        }
+        lit as f32 / 25.0
+    }
+}
+
+fn key_light_direction() -> Vec3 {
+    Vec3::new(-0.5, 0.5, 0.71).normalize()
+}
+
 /// Shades the head for one frame.
 pub struct FaceShader<'a> {
+    shadow: Option<&'a ShadowMap>,
     model: &'a FaceModel,
     posed: &'a Posed,
     identity: &'a Identity,
@@ -67,7 +116,12 @@ pub struct FaceShader<'a> {
 
 impl<'a> FaceShader<'a> {
     pub fn new(model: &'a FaceModel, posed: &'a Posed, identity: &'a Identity, height: u32) -> FaceShader<'a> {
-        FaceShader { model, posed, identity, regions: regions(model), lights: lights(), height }
+        FaceShader { shadow: None, model, posed, identity, regions: regions(model), lights: lights(), height }
+    }
+
+    /// Casts the key light's shadows from `shadow`.
+    pub fn with_shadows(self, shadow: &'a ShadowMap) -> FaceShader<'a> {
+        FaceShader { shadow: Some(shadow), ..self }
     }
 
     fn interpolate(&self, values: &[f32], f: &Fragment) -> f32 {
@@ -104,10 +158,14 @@ impl<'a> FaceShader<'a> {
         height
     }
 
-    fn lit(&self, normal: Vec3, view: Vec3, albedo: Vec3, wrap: f32, specular: f32, shininess: f32) -> Vec3 {
+    fn lit(&self, f: &Fragment, normal: Vec3, albedo: Vec3, wrap: f32, specular: f32, shininess: f32) -> Vec3 {
+        let view = f.view_dir;
         let ambient = SKY.lerp(GROUND, (0.5 - 0.5 * normal.y).clamp(0.0, 1.0));
         let mut colour = albedo * ambient;
-        for light in &self.lights {
+        // Offsetting along the normal keeps surfaces from shadowing themselves (acne).
+        let key_reaches = self.shadow.map_or(1.0, |s| s.light(f.position + normal * 0.01));
+        for (n, light) in self.lights.iter().enumerate() {
+            let reach = if n == 0 { 0.15 + 0.85 * key_reaches } else { 1.0 };
             let n_dot_l = normal.dot(light.direction);
             // Wrapped diffuse lets light bleed past the terminator, red most (subsurface look).
             let wrapped = Vec3::new(
@@ -115,12 +173,12 @@ impl<'a> FaceShader<'a> {
                 ((n_dot_l + wrap) / (1.0 + wrap)).max(0.0),
                 ((n_dot_l + wrap * 0.8) / (1.0 + wrap * 0.8)).max(0.0),
             );
-            colour += albedo * light.colour * wrapped;
+            colour += albedo * light.colour * wrapped * reach;
             if n_dot_l > 0.0 {
                 let half = (light.direction + view).normalize();
                 let fresnel = 0.04 + 0.96 * (1.0 - view.dot(half).max(0.0)).powi(5);
                 let lobe = normal.dot(half).max(0.0).powf(shininess) * (shininess + 8.0) / 25.0;
-                colour += light.colour * specular * fresnel * lobe * n_dot_l;
+                colour += light.colour * specular * fresnel * lobe * n_dot_l * reach;
             }
         }
         colour
@@ -165,7 +223,7 @@ impl<'a> FaceShader<'a> {
         let oily = blob(Vec2::new(rest.x, rest.y), Vec2::new(0.0, 7.3), Vec2::new(0.12, 0.7));
         let specular = (0.35 + 0.35 * oily) * (1.0 - hair) * (1.0 - 0.8 * brow) + 0.6 * lips;
         let shininess = 18.0 + 30.0 * lips;
-        let mut colour = self.lit(normal, f.view_dir, albedo, 0.35 * (1.0 - hair), specular, shininess);
+        let mut colour = self.lit(f, normal, albedo, 0.35 * (1.0 - hair), specular, shininess);
         // The mouth interior is dark, more so the deeper it lies behind the lips.
         if mouth > 0.0 {
             let depth = (1.52 - rest.z).max(0.0);
@@ -192,8 +250,8 @@ impl<'a> FaceShader<'a> {
         albedo = albedo.lerp(Vec3::splat(0.01), 1.0 - smoothstep(pupil - 0.02, pupil + 0.01, angle));
         // The upper lid shades the top of the eyeball.
         let lid_shadow = 1.0 - 0.45 * smoothstep(0.1, 0.7, d.dot(eye.up));
-        let colour = self.lit(d, f.view_dir, albedo * lid_shadow, 0.1, 0.0, 1.0);
-        colour + self.cornea_highlight(d, f.view_dir)
+        let colour = self.lit(f, d, albedo * lid_shadow, 0.1, 0.0, 1.0);
+        colour + self.cornea_highlight(d, f.view_dir) * self.shadow.map_or(1.0, |s| s.light(f.position))
     }
 
     fn cornea_highlight(&self, normal: Vec3, view: Vec3) -> Vec3 {
@@ -206,14 +264,14 @@ impl<'a> FaceShader<'a> {
         let rest = self.rest(f);
         // Inside the mouth little light arrives: dim everything, and more with depth.
         let depth = (1.50 - rest.z).max(0.0);
-        let colour = self.lit(f.normal, f.view_dir, base, 0.2, specular, 40.0);
+        let colour = self.lit(f, f.normal, base, 0.2, specular, 40.0);
         colour * 0.7 * (-depth * 6.0).exp()
     }
 
     /// Lower lashes are sparse and short: mostly the lid's own tone, a little darker.
     fn shade_skin_tone_lash(&self, f: &Fragment) -> Vec3 {
         let albedo = self.identity.skin.lerp(self.identity.hair, 0.12) * 0.85;
-        self.lit(f.normal, f.view_dir, albedo, 0.3, 0.0, 1.0)
+        self.lit(f, f.normal, albedo, 0.3, 0.0, 1.0)
     }
 
     /// The eye sockets' own shading for the eyeball parts depends on which eye it is.

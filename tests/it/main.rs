@@ -1,4 +1,5 @@
 //! Integration tests: drive the real `facslab` binary on files in a temporary directory.
 
 mod cli;
+mod golden;
 mod render;
