@@ -67,7 +67,7 @@ impl RgbImage {
             let mut encoder = png::Encoder::new(&mut out, self.width, self.height);
             encoder.set_color(png::ColorType::Rgb);
             encoder.set_depth(png::BitDepth::Eight);
-            encoder.set_compression(png::Compression::Balanced);
+            encoder.set_compression(png::Compression::Fast);
             encoder.set_filter(png::Filter::Adaptive);
             // The pixels are sRGB; say so (a fixed chunk, so still deterministic).
             encoder.set_source_srgb(png::SrgbRenderingIntent::Perceptual);

@@ -98,9 +98,9 @@ pub fn render_posed(posed: &Posed, identity: &Identity, settings: FrameSettings)
         })
         .collect();
     let camera = portrait_camera(posed.anchor, width, height);
-    let shadow = shade::ShadowMap::new(&scene, posed.anchor + Vec3::new(0.0, -0.3, 0.0), 512, threads);
+    let shadow = shade::ShadowMap::new(&scene, posed.anchor + Vec3::new(0.0, -0.3, 0.0), 320, threads);
     let shader = shade::FaceShader::new(model, posed, identity, height).with_shadows(&shadow);
-    let options = RenderOptions { samples_per_pixel: SampleCount::X8, threads, backface_culling: false };
+    let options = RenderOptions { samples_per_pixel: SampleCount::X4, threads, backface_culling: false };
     Ok(raster::render(&scene, &camera, &shader, &options))
 }
 

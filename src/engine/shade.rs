@@ -60,6 +60,7 @@ const GROUND: Vec3 = Vec3::new(0.07, 0.06, 0.055);
 /// brow ridge on the eyes, the chin on the neck).
 pub struct ShadowMap {
     camera: Camera,
+    view: glam::Mat4,
     distance: Vec<f32>,
 }
 
@@ -77,25 +78,29 @@ impl ShadowMap {
         let options = RenderOptions { samples_per_pixel: SampleCount::X1, threads, backface_culling: false };
         let visibility = raster::visibility(scene, &camera, &options);
         let distance = visibility.samples.iter().map(|hit| hit.map_or(f32::INFINITY, |h| h.distance)).collect();
-        ShadowMap { camera, distance }
+        ShadowMap { view: camera.view(), camera, distance }
     }
 
-    /// Fraction of the key light reaching `position` (0 = in shadow), softened over 5×5 texels.
+    /// Fraction of the key light reaching `position` (0 = in shadow), softened over 3×3 texels.
     fn light(&self, position: Vec3) -> f32 {
-        let Some(p) = self.camera.project(position) else { return 1.0 };
+        let h = self.camera.view_to_homogeneous_pixel(self.view.transform_point3(position));
+        if h.z < self.camera.near() {
+            return 1.0;
+        }
+        let p = Vec3::new(h.x / h.z, h.y / h.z, h.z);
         let (w, h) = (self.camera.width as i32, self.camera.height as i32);
         let (cx, cy) = (p.x.floor() as i32, p.y.floor() as i32);
         let bias = 0.02;
         let mut lit = 0;
-        for dy in -2..=2 {
-            for dx in -2..=2 {
+        for dy in -1..=1 {
+            for dx in -1..=1 {
                 let (x, y) = ((cx + dx).clamp(0, w - 1), (cy + dy).clamp(0, h - 1));
                 if p.z <= self.distance[(y * w + x) as usize] + bias {
                     lit += 1;
                 }
             }
         }
-        lit as f32 / 25.0
+        lit as f32 / 9.0
     }
 }
 
@@ -103,8 +108,37 @@ fn key_light_direction() -> Vec3 {
     Vec3::new(-0.5, 0.5, 0.71).normalize()
 }
 
+/// Slowly varying painted features, evaluated once per skin vertex and interpolated.
+struct SkinMaps {
+    mottle: Vec<f32>,
+    cheek: Vec<f32>,
+    oily: Vec<f32>,
+    beard: Vec<f32>,
+    hair: Vec<f32>,
+}
+
+impl SkinMaps {
+    fn new(model: &FaceModel, identity: &Identity) -> SkinMaps {
+        let skin = &model.rest[..model.part(Part::Skin).vertices.end as usize];
+        let map = |f: &dyn Fn(Vec3) -> f32| skin.iter().map(|&p| f(p)).collect::<Vec<f32>>();
+        let ears = &regions(model).ears;
+        SkinMaps {
+            mottle: map(&|p| 1.0 + 0.06 * (fbm(p * 40.0) - 0.5)),
+            cheek: map(&|p| blob(Vec2::new(p.x.abs(), p.y), Vec2::new(0.38, 6.95), Vec2::new(0.14, 0.12))),
+            oily: map(&|p| blob(Vec2::new(p.x, p.y), Vec2::new(0.0, 7.3), Vec2::new(0.12, 0.7))),
+            beard: map(&|p| beard_mask(p) * identity.stubble),
+            hair: skin.iter().zip(ears).map(|(&p, &e)| hair_mask(p, identity.hairline) * (1.0 - e)).collect(),
+        }
+    }
+}
+
+/// The appearance channels active in this frame, with their (left, right) weights.
+type ActivePatterns = Vec<(Pattern, f32, f32)>;
+
 /// Shades the head for one frame.
 pub struct FaceShader<'a> {
+    maps: SkinMaps,
+    patterns: ActivePatterns,
     shadow: Option<&'a ShadowMap>,
     model: &'a FaceModel,
     posed: &'a Posed,
@@ -116,7 +150,15 @@ pub struct FaceShader<'a> {
 
 impl<'a> FaceShader<'a> {
     pub fn new(model: &'a FaceModel, posed: &'a Posed, identity: &'a Identity, height: u32) -> FaceShader<'a> {
-        FaceShader { shadow: None, model, posed, identity, regions: regions(model), lights: lights(), height }
+        let patterns = PATTERNS
+            .iter()
+            .filter_map(|(name, pattern)| {
+                let (l, r) = posed.appearance.get(*name).copied()?;
+                (l != 0.0 || r != 0.0).then_some((*pattern, l, r))
+            })
+            .collect();
+        let maps = SkinMaps::new(model, identity);
+        FaceShader { maps, patterns, shadow: None, model, posed, identity, regions: regions(model), lights: lights(), height }
     }
 
     /// Casts the key light's shadows from `shadow`.
@@ -139,23 +181,11 @@ impl<'a> FaceShader<'a> {
         smoothstep(-0.03, 0.03, x)
     }
 
-    fn appearance(&self, name: &str, x: f32) -> f32 {
-        let (left, right) = self.posed.appearance.get(name).copied().unwrap_or((0.0, 0.0));
-        let l = Self::left_weight(x);
-        left * l + right * (1.0 - l)
-    }
-
     /// Total furrow/bulge height at a rest position (decimetres × pattern depth).
     fn relief(&self, p: Vec3) -> f32 {
         let mirrored = Vec2::new(p.x.abs(), p.y);
-        let mut height = 0.0;
-        for (name, pattern) in PATTERNS {
-            let weight = self.appearance(name, p.x);
-            if weight > 0.0 {
-                height += weight * pattern(mirrored);
-            }
-        }
-        height
+        let l = Self::left_weight(p.x);
+        self.patterns.iter().map(|(pattern, left, right)| (left * l + right * (1.0 - l)) * pattern(mirrored)).sum()
     }
 
     fn lit(&self, f: &Fragment, normal: Vec3, albedo: Vec3, wrap: f32, specular: f32, shininess: f32) -> Vec3 {
@@ -189,38 +219,40 @@ impl<'a> FaceShader<'a> {
         let identity = self.identity;
         let lips = smoothstep(0.3, 0.7, self.interpolate(&self.regions.lips, f));
         let mouth = self.interpolate(&self.regions.inside_mouth, f);
-        let ears = self.interpolate(&self.regions.ears, f);
 
         // Surface relief: wrinkles and furrows as a bump map in rest space.
         let mut normal = f.normal;
         let mut crease = 0.0;
-        let h = self.relief(rest);
+        let h = if self.patterns.is_empty() { 0.0 } else { self.relief(rest) };
         if h != 0.0 {
-            let e = 0.004;
-            let gx = (self.relief(rest + Vec3::X * e) - self.relief(rest - Vec3::X * e)) / (2.0 * e);
-            let gy = (self.relief(rest + Vec3::Y * e) - self.relief(rest - Vec3::Y * e)) / (2.0 * e);
+            let e = 0.003;
+            let gx = (self.relief(rest + Vec3::X * e) - h) / e;
+            let gy = (self.relief(rest + Vec3::Y * e) - h) / e;
             normal = (normal - 0.006 * (gx * Vec3::X + gy * Vec3::Y)).normalize();
             crease = (-h).max(0.0);
         }
 
         // Albedo: skin with mottling, cheeks, lips, stubble, brows, hair, mouth interior.
-        let mottle = 1.0 + 0.05 * (fbm(rest * 40.0) - 0.5) + 0.03 * (fbm(rest * 160.0) - 0.5);
-        let mut albedo = identity.skin * mottle;
-        let cheek = blob(Vec2::new(rest.x.abs(), rest.y), Vec2::new(0.38, 6.95), Vec2::new(0.14, 0.12));
+        let maps = &self.maps;
+        let pores = 1.0 + 0.04 * (value_noise(rest * 160.0) - 0.5);
+        let mut albedo = identity.skin * self.interpolate(&maps.mottle, f) * pores;
+        let cheek = self.interpolate(&maps.cheek, f);
         albedo = albedo.lerp(albedo * Vec3::new(1.08, 0.9, 0.88), 0.5 * cheek);
         albedo = albedo.lerp(identity.lips, lips);
-        if identity.stubble > 0.0 {
-            let beard = beard_mask(rest) * identity.stubble * (1.0 - lips);
-            let dots = smoothstep(0.45, 0.75, fbm(rest * 260.0));
+        let beard = self.interpolate(&maps.beard, f) * (1.0 - lips);
+        if beard > 0.0 {
+            let dots = smoothstep(0.4, 0.8, value_noise(rest * 260.0));
             albedo = albedo.lerp(identity.hair * 0.6 + identity.skin * 0.25, beard * (0.35 + 0.5 * dots));
         }
-        let hair = hair_mask(rest, identity.hairline) * (1.0 - ears);
+        let hair = self.interpolate(&maps.hair, f);
+        if hair > 0.0 {
+            let hair_albedo = identity.hair * (0.75 + 0.5 * strands(rest));
+            albedo = albedo.lerp(hair_albedo, hair);
+        }
         let brow = brow_mask(rest);
-        let hair_albedo = identity.hair * (0.75 + 0.5 * strands(rest));
-        albedo = albedo.lerp(hair_albedo, hair);
         albedo = albedo.lerp(identity.hair * 0.8, brow);
         albedo *= 1.0 - 0.15 * crease.min(1.0);
-        let oily = blob(Vec2::new(rest.x, rest.y), Vec2::new(0.0, 7.3), Vec2::new(0.12, 0.7));
+        let oily = self.interpolate(&maps.oily, f);
         let specular = (0.35 + 0.35 * oily) * (1.0 - hair) * (1.0 - 0.8 * brow) + 0.6 * lips;
         let shininess = 18.0 + 30.0 * lips;
         let mut colour = self.lit(f, normal, albedo, 0.35 * (1.0 - hair), specular, shininess);
