@@ -784,3 +784,131 @@ fn fragment(t: &ShadeTri, scene: &[Triangles], camera: &Camera, x: f64, y: f64, 
         pixel,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A camera at z = 10 looking at the origin; the plane z = 0 spans ±`half` world units.
+    fn camera(size: u32) -> Camera {
+        Camera { eye: Vec3::new(0.0, 0.0, 10.0), target: Vec3::ZERO, up: Vec3::Y, fov_y_degrees: 20.0, width: size, height: size }
+    }
+
+    struct Flat;
+    impl Shader for Flat {
+        fn shade(&self, f: &Fragment) -> Vec3 {
+            Vec3::splat(if f.part == 0 { 1.0 } else { 0.25 })
+        }
+        fn background(&self, _: u32, _: u32) -> Vec3 {
+            Vec3::ZERO
+        }
+    }
+
+    fn options(samples: SampleCount, threads: Option<usize>) -> RenderOptions {
+        RenderOptions { samples_per_pixel: samples, threads, backface_culling: false }
+    }
+
+    /// A quad of two triangles sharing the diagonal, in the plane z = `z`.
+    fn quad(z: f32, half: f32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+        let p = vec![
+            Vec3::new(-half, -half, z),
+            Vec3::new(half, -half, z),
+            Vec3::new(half, half, z),
+            Vec3::new(-half, half, z),
+        ];
+        (p, vec![[0, 1, 2], [0, 2, 3]])
+    }
+
+    fn item<'a>(positions: &'a [Vec3], indices: &'a [[u32; 3]], part: u16) -> Triangles<'a> {
+        Triangles { positions, normals: &[], uvs: &[], indices, part }
+    }
+
+    #[test]
+    fn a_triangle_covers_its_inside_and_not_its_outside() {
+        let positions = [Vec3::new(-1.0, -1.0, 0.0), Vec3::new(1.0, -1.0, 0.0), Vec3::new(0.0, 1.0, 0.0)];
+        let indices = [[0, 1, 2]];
+        let vis = visibility(&[item(&positions, &indices, 0)], &camera(64), &options(SampleCount::X4, Some(1)));
+        assert_eq!(vis.covered(32, 36), 4, "centre-ish pixel fully covered");
+        assert_eq!(vis.covered(2, 2), 0, "corner pixel empty");
+        assert_eq!(vis.covered(60, 5), 0);
+    }
+
+    #[test]
+    fn a_shared_edge_leaves_no_gap_and_no_double_coverage() {
+        let (positions, indices) = quad(0.0, 1.0);
+        let vis = visibility(&[item(&positions, &indices, 0)], &camera(64), &options(SampleCount::X16, Some(1)));
+        let c = camera(64);
+        let (a, b) = (c.project(Vec3::new(-1.0, -1.0, 0.0)).unwrap(), c.project(Vec3::new(1.0, 1.0, 0.0)).unwrap());
+        for y in (b.y.ceil() as u32 + 1)..(a.y.floor() as u32 - 1) {
+            for x in (a.x.ceil() as u32 + 1)..(b.x.floor() as u32 - 1) {
+                let both = vis.coverage(x, y, 0, 0) + vis.coverage(x, y, 0, 1);
+                assert_eq!(both, 16, "pixel ({x}, {y}) inside the quad");
+            }
+        }
+    }
+
+    #[test]
+    fn the_nearer_surface_wins_whatever_the_order() {
+        let (near, idx) = quad(1.0, 0.5);
+        let (far, _) = quad(0.0, 1.0);
+        let c = camera(32);
+        let a = render(&[item(&near, &idx, 0), item(&far, &idx, 1)], &c, &Flat, &options(SampleCount::X4, Some(1)));
+        let b = render(&[item(&far, &idx, 1), item(&near, &idx, 0)], &c, &Flat, &options(SampleCount::X4, Some(1)));
+        assert_eq!(a.pixel(16, 16), [255, 255, 255]);
+        assert_eq!(b.pixel(16, 16), [255, 255, 255]);
+        assert_eq!(a.pixel(16, 16), b.pixel(16, 16));
+    }
+
+    #[test]
+    fn triangles_crossing_the_near_plane_are_clipped_not_dropped() {
+        // One corner behind the camera (z = 20 > eye z = 10).
+        let positions = [Vec3::new(-1.0, -1.0, 0.0), Vec3::new(1.0, -1.0, 0.0), Vec3::new(0.0, 0.0, 20.0)];
+        let indices = [[0, 1, 2]];
+        let vis = visibility(&[item(&positions, &indices, 0)], &camera(64), &options(SampleCount::X1, Some(1)));
+        let covered: usize = (0..64).flat_map(|y| (0..64).map(move |x| (x, y))).map(|(x, y)| vis.covered(x, y)).sum();
+        assert!(covered > 0);
+    }
+
+    #[test]
+    fn edges_are_anti_aliased() {
+        let positions = [Vec3::new(-1.0, -1.0, 0.0), Vec3::new(1.0, -1.0, 0.0), Vec3::new(-1.0, 1.0, 0.0)];
+        let indices = [[0, 1, 2]];
+        let image = render(&[item(&positions, &indices, 0)], &camera(64), &Flat, &options(SampleCount::X16, Some(1)));
+        let partial = image.data.iter().filter(|&&v| v > 10 && v < 245).count();
+        assert!(partial > 20, "only {partial} partially covered channel values");
+    }
+
+    /// A fixed pseudo-random scene (LCG) of overlapping triangles.
+    fn random_scene() -> (Vec<Vec3>, Vec<[u32; 3]>) {
+        let mut state: u64 = 0x2545_f491_4f6c_dd1d;
+        let mut next = || {
+            state = state.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+            ((state >> 33) as f32 / (1u64 << 31) as f32) * 2.0 - 1.0
+        };
+        let positions: Vec<Vec3> = (0..1500).map(|_| Vec3::new(next() * 1.5, next() * 1.5, next())).collect();
+        let indices = (0..500).map(|t| [t * 3, t * 3 + 1, t * 3 + 2]).collect();
+        (positions, indices)
+    }
+
+    struct ByTriangle;
+    impl Shader for ByTriangle {
+        fn shade(&self, f: &Fragment) -> Vec3 {
+            Vec3::new((f.triangle % 7) as f32 / 7.0, f.barycentric.x, (f.triangle % 3) as f32 / 3.0)
+        }
+        fn background(&self, x: u32, y: u32) -> Vec3 {
+            Vec3::new(x as f32 / 100.0, y as f32 / 100.0, 0.2)
+        }
+    }
+
+    #[test]
+    fn output_is_identical_for_any_thread_count() {
+        let (positions, indices) = random_scene();
+        let scene = [item(&positions, &indices, 0)];
+        let c = camera(100);
+        let one = render(&scene, &c, &ByTriangle, &options(SampleCount::X8, Some(1)));
+        let two = render(&scene, &c, &ByTriangle, &options(SampleCount::X8, Some(2)));
+        let all = render(&scene, &c, &ByTriangle, &options(SampleCount::X8, None));
+        assert_eq!(one.encode_png(), two.encode_png());
+        assert_eq!(one.encode_png(), all.encode_png());
+    }
+}
