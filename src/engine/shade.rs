@@ -81,7 +81,7 @@ impl ShadowMap {
         ShadowMap { view: camera.view(), camera, distance }
     }
 
-    /// Fraction of the key light reaching `position` (0 = in shadow), softened over 3×3 texels.
+    /// Fraction of the key light reaching `position` (0 = in shadow), softened over a 4×4 texel footprint.
     fn light(&self, position: Vec3) -> f32 {
         let h = self.camera.view_to_homogeneous_pixel(self.view.transform_point3(position));
         if h.z < self.camera.near() {
@@ -89,18 +89,23 @@ impl ShadowMap {
         }
         let p = Vec3::new(h.x / h.z, h.y / h.z, h.z);
         let (w, h) = (self.camera.width as i32, self.camera.height as i32);
-        let (cx, cy) = (p.x.floor() as i32, p.y.floor() as i32);
-        let bias = 0.02;
-        let mut lit = 0;
-        for dy in -1..=1 {
-            for dx in -1..=1 {
+        // Bilinear percentage-closer filtering over a 4×4 texel footprint.
+        let (fx, fy) = (p.x - 0.5, p.y - 0.5);
+        let (cx, cy) = (fx.floor() as i32, fy.floor() as i32);
+        let (tx, ty) = (fx - cx as f32, fy - cy as f32);
+        let bias = 0.035;
+        let mut lit = 0.0;
+        for dy in -1..=2 {
+            let wy = match dy { -1 => 1.0 - ty, 2 => ty, _ => 1.0 };
+            for dx in -1..=2 {
+                let wx = match dx { -1 => 1.0 - tx, 2 => tx, _ => 1.0 };
                 let (x, y) = ((cx + dx).clamp(0, w - 1), (cy + dy).clamp(0, h - 1));
                 if p.z <= self.distance[(y * w + x) as usize] + bias {
-                    lit += 1;
+                    lit += wx * wy;
                 }
             }
         }
-        lit as f32 / 9.0
+        lit / 9.0
     }
 }
 
@@ -193,7 +198,7 @@ impl<'a> FaceShader<'a> {
         let ambient = SKY.lerp(GROUND, (0.5 - 0.5 * normal.y).clamp(0.0, 1.0));
         let mut colour = albedo * ambient;
         // Offsetting along the normal keeps surfaces from shadowing themselves (acne).
-        let key_reaches = self.shadow.map_or(1.0, |s| s.light(f.position + normal * 0.01));
+        let key_reaches = self.shadow.map_or(1.0, |s| s.light(f.position + normal * 0.02));
         for (n, light) in self.lights.iter().enumerate() {
             let reach = if n == 0 { 0.15 + 0.85 * key_reaches } else { 1.0 };
             let n_dot_l = normal.dot(light.direction);
@@ -317,7 +322,14 @@ impl Shader for FaceShader<'_> {
         match Part::from_id(f.part) {
             Some(Part::Skin) | None => self.shade_skin(f),
             Some(part @ (Part::EyeLeft | Part::EyeRight)) => self.shade_eye(f, Self::eye_index(part)),
-            Some(Part::TeethUpper | Part::TeethLower) => self.shade_mouth_part(f, Vec3::new(0.70, 0.66, 0.56), 0.5),
+            Some(Part::TeethUpper | Part::TeethLower) => {
+                // Gaps between teeth: narrow dark lines at each tooth's edge across the arch.
+                let x = self.rest(f).x.abs();
+                let widths = [0.0, 0.08, 0.14, 0.2, 0.26];
+                let gap = widths.iter().map(|&w| (-((x - w) / 0.004).powi(2)).exp()).fold(0.0, f32::max);
+                let enamel = Vec3::new(0.70, 0.66, 0.56) * (1.0 - 0.55 * gap);
+                self.shade_mouth_part(f, enamel, 0.5)
+            }
             Some(Part::Tongue) => self.shade_mouth_part(f, Vec3::new(0.45, 0.12, 0.12), 0.3),
             Some(Part::LashesUpper) => self.identity.hair * 0.3 + Vec3::splat(0.012),
             Some(Part::LashesLower) => self.shade_skin_tone_lash(f),
@@ -350,7 +362,7 @@ fn brow_mask(rest: Vec3) -> f32 {
     }
     let x = rest.x.abs();
     let t = (x - 0.075) / 0.44;
-    if !(-0.05..=1.05).contains(&t) {
+    if !(-0.08..=1.05).contains(&t) {
         return 0.0;
     }
     let t = t.clamp(0.0, 1.0);
@@ -360,7 +372,7 @@ fn brow_mask(rest: Vec3) -> f32 {
     // Strands lean outward and upward near the head of the brow, outward along the tail.
     let strand = value_noise(Vec3::new((x - rest.y * (0.9 - 0.8 * t)) * 300.0, rest.y * 20.0, 0.5));
     let body = 1.0 - smoothstep(0.55, 1.0 + 0.25 * strand, across.abs());
-    let ends = smoothstep(-0.05, 0.06, t) * (1.0 - smoothstep(0.9, 1.04, t));
+    let ends = smoothstep(-0.06, 0.12, t + 0.03 * strand) * (1.0 - smoothstep(0.9, 1.04, t));
     (body * ends * (0.75 + 0.35 * strand)).clamp(0.0, 1.0)
 }
 
