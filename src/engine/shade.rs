@@ -362,9 +362,10 @@ fn brow_mask(rest: Vec3) -> f32 {
     }
     let x = rest.x.abs();
     let t = (x - 0.075) / 0.44;
-    if !(-0.08..=1.05).contains(&t) {
+    if !(-0.02..=1.05).contains(&t) {
         return 0.0;
     }
+    let t_raw = t;
     let t = t.clamp(0.0, 1.0);
     let centre = 7.44 + 0.07 * (std::f32::consts::PI * t.powf(0.7)).sin() - 0.035 * t;
     let half = 0.030 * (1.0 - 0.55 * t) + 0.006;
@@ -372,7 +373,7 @@ fn brow_mask(rest: Vec3) -> f32 {
     // Strands lean outward and upward near the head of the brow, outward along the tail.
     let strand = value_noise(Vec3::new((x - rest.y * (0.9 - 0.8 * t)) * 300.0, rest.y * 20.0, 0.5));
     let body = 1.0 - smoothstep(0.55, 1.0 + 0.25 * strand, across.abs());
-    let ends = smoothstep(-0.06, 0.12, t + 0.03 * strand) * (1.0 - smoothstep(0.9, 1.04, t));
+    let ends = smoothstep(0.0, 0.1, t_raw + 0.02 * (strand - 0.5)) * (1.0 - smoothstep(0.9, 1.04, t));
     (body * ends * (0.75 + 0.35 * strand)).clamp(0.0, 1.0)
 }
 
