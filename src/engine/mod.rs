@@ -1,1 +1,5 @@
 //! The face engine: expression → deformed mesh → pixels.
+
+pub mod camera;
+pub mod image;
+pub mod raster;

@@ -1,0 +1,201 @@
+//! 8-bit sRGB images, the linear → sRGB transfer function, and deterministic PNG encoding.
+//!
+//! **Invariant:** the same pixels always encode to the same PNG bytes: the encoder settings are
+//! fixed here (RGB 8-bit, no ancillary chunks, `Balanced` deflate, adaptive row filters) and the
+//! `png` crate's encoder is itself deterministic.
+
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+/// An RGB image, 8 bits per channel, sRGB-encoded, rows top to bottom, no padding.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct RgbImage {
+    pub width: u32,
+    pub height: u32,
+    /// `width * height * 3` bytes, `R G B` per pixel, row-major from the top-left corner.
+    pub data: Vec<u8>,
+}
+
+/// Failure to encode or write a PNG.
+#[derive(Debug, thiserror::Error)]
+pub enum ImageError {
+    #[error("cannot write PNG file {path}: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("PNG encoding failed: {0}")]
+    Encode(#[from] png::EncodingError),
+}
+
+impl RgbImage {
+    /// A black image.
+    pub fn new(width: u32, height: u32) -> Self {
+        RgbImage { width, height, data: vec![0; width as usize * height as usize * 3] }
+    }
+
+    /// The pixel at (`x`, `y`); panics when outside the image.
+    pub fn pixel(&self, x: u32, y: u32) -> [u8; 3] {
+        assert!(x < self.width && y < self.height, "pixel ({x}, {y}) outside {}×{}", self.width, self.height);
+        let i = (y as usize * self.width as usize + x as usize) * 3;
+        [self.data[i], self.data[i + 1], self.data[i + 2]]
+    }
+
+    /// Sets the pixel at (`x`, `y`); panics when outside the image.
+    pub fn set_pixel(&mut self, x: u32, y: u32, rgb: [u8; 3]) {
+        assert!(x < self.width && y < self.height, "pixel ({x}, {y}) outside {}×{}", self.width, self.height);
+        let i = (y as usize * self.width as usize + x as usize) * 3;
+        self.data[i..i + 3].copy_from_slice(&rgb);
+    }
+
+    /// Encodes as PNG with fixed settings: same pixels, same bytes.
+    pub fn encode_png(&self) -> Vec<u8> {
+        self.try_encode_png().expect("encoding a well-formed RGB image into memory cannot fail")
+    }
+
+    fn try_encode_png(&self) -> Result<Vec<u8>, ImageError> {
+        assert_eq!(
+            self.data.len(),
+            self.width as usize * self.height as usize * 3,
+            "RgbImage data length does not match {}×{}×3",
+            self.width,
+            self.height
+        );
+        let mut out = Vec::with_capacity(self.data.len() / 2 + 1024);
+        {
+            let mut encoder = png::Encoder::new(&mut out, self.width, self.height);
+            encoder.set_color(png::ColorType::Rgb);
+            encoder.set_depth(png::BitDepth::Eight);
+            encoder.set_compression(png::Compression::Balanced);
+            encoder.set_filter(png::Filter::Adaptive);
+            // The pixels are sRGB; say so (a fixed chunk, so still deterministic).
+            encoder.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+            let mut writer = encoder.write_header()?;
+            writer.write_image_data(&self.data)?;
+            writer.finish()?;
+        }
+        Ok(out)
+    }
+
+    /// Encodes (see [`RgbImage::encode_png`]) and writes the PNG to `path`.
+    pub fn write_png(&self, path: impl AsRef<Path>) -> Result<(), ImageError> {
+        let path = path.as_ref();
+        let bytes = self.try_encode_png()?;
+        std::fs::write(path, bytes).map_err(|source| ImageError::Io { path: path.to_path_buf(), source })
+    }
+}
+
+/// The sRGB transfer function (IEC 61966-2-1), linear `[0, 1]` → encoded `[0, 1]`; clamps.
+pub fn linear_to_srgb(linear: f32) -> f32 {
+    let c = f64::from(linear);
+    if c.is_nan() || c <= 0.0 {
+        return 0.0;
+    }
+    if c >= 1.0 {
+        return 1.0;
+    }
+    (if c <= 0.003_130_8 { 12.92 * c } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 }) as f32
+}
+
+/// The inverse of [`linear_to_srgb`]: encoded `[0, 1]` → linear; clamps.
+pub fn srgb_to_linear(encoded: f32) -> f32 {
+    let s = f64::from(encoded);
+    if s.is_nan() || s <= 0.0 {
+        return 0.0;
+    }
+    if s >= 1.0 {
+        return 1.0;
+    }
+    (if s <= 0.040_45 { s / 12.92 } else { ((s + 0.055) / 1.055).powf(2.4) }) as f32
+}
+
+/// Linear `[0, 1]` → 8-bit sRGB, i.e. `round(255 · linear_to_srgb(linear))`, NaN → 0.
+///
+/// Evaluated without `powf` per call: a table of the 255 linear values at which the rounded
+/// output steps up (built once, in `f64`) is searched by bisection. Fast and deterministic.
+pub fn linear_to_srgb8(linear: f32) -> u8 {
+    let thresholds = srgb8_thresholds();
+    if linear.is_nan() {
+        return 0;
+    }
+    // Number of thresholds ≤ `linear` (thresholds are strictly increasing).
+    thresholds.partition_point(|&t| t <= linear) as u8
+}
+
+/// `t[k]` = smallest f32 `x` with `255 · linear_to_srgb(x) ≥ k + 0.5`, for k = 0..255.
+fn srgb8_thresholds() -> &'static [f32; 255] {
+    static TABLE: OnceLock<[f32; 255]> = OnceLock::new();
+    TABLE.get_or_init(|| {
+        let mut table = [0f32; 255];
+        for (k, slot) in table.iter_mut().enumerate() {
+            let target = (k as f64 + 0.5) / 255.0;
+            let mut x = srgb_to_linear(target as f32);
+            // Nudge to the exact f32 boundary of the forward formula.
+            let encodes_above = |x: f32| f64::from(linear_to_srgb(x)) >= target;
+            while !encodes_above(x) {
+                x = f32::from_bits(x.to_bits() + 1);
+            }
+            while x > 0.0 && encodes_above(f32::from_bits(x.to_bits() - 1)) {
+                x = f32::from_bits(x.to_bits() - 1);
+            }
+            *slot = x;
+        }
+        table
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn srgb8_matches_the_formula() {
+        for i in 0..=20_000u32 {
+            let x = i as f32 / 20_000.0;
+            let expected = (f64::from(linear_to_srgb(x)) * 255.0 + 0.5).floor() as u8;
+            assert_eq!(linear_to_srgb8(x), expected, "x = {x}");
+        }
+        assert_eq!(linear_to_srgb8(-1.0), 0);
+        assert_eq!(linear_to_srgb8(f32::NAN), 0);
+        assert_eq!(linear_to_srgb8(2.0), 255);
+        assert_eq!(linear_to_srgb8(0.5), 188);
+        assert_eq!(linear_to_srgb8(0.214_041_14), 128);
+    }
+
+    #[test]
+    fn srgb_round_trip() {
+        for i in 0..=100 {
+            let s = i as f32 / 100.0;
+            assert!((linear_to_srgb(srgb_to_linear(s)) - s).abs() < 1e-5);
+        }
+    }
+
+    #[test]
+    fn png_is_deterministic_and_decodes_back() {
+        let mut img = RgbImage::new(7, 5);
+        for y in 0..5 {
+            for x in 0..7 {
+                img.set_pixel(x, y, [(x * 30) as u8, (y * 50) as u8, 7]);
+            }
+        }
+        let a = img.encode_png();
+        let b = img.clone().encode_png();
+        assert_eq!(a, b);
+        let decoder = png::Decoder::new(std::io::Cursor::new(a));
+        let mut reader = decoder.read_info().unwrap();
+        let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+        let info = reader.next_frame(&mut buf).unwrap();
+        assert_eq!((info.width, info.height), (7, 5));
+        assert_eq!(&buf[..info.buffer_size()], &img.data[..]);
+    }
+
+    #[test]
+    fn write_png_reports_a_typed_error() {
+        let dir = tempfile::tempdir().unwrap();
+        let img = RgbImage::new(2, 2);
+        img.write_png(dir.path().join("ok.png")).unwrap();
+        let err = img.write_png(dir.path().join("missing/dir/x.png")).unwrap_err();
+        assert!(matches!(err, ImageError::Io { .. }), "{err}");
+    }
+}

@@ -1,0 +1,1165 @@
+//! Triangles → samples → pixels: a deterministic, tile-parallel, anti-aliased CPU rasteriser
+//! with a visibility buffer.
+//!
+//! # Pipeline
+//! 1. **Setup** (sequential, in scene order): every vertex is transformed once to homogeneous
+//!    pixel coordinates `(X, Y, w)` (see [`Camera::view_to_homogeneous_pixel`]). Triangles are
+//!    clipped against the near plane and a guard band ([`GUARD_BAND_PX`] pixels around the
+//!    image), snapped to fixed point with [`SUBPIXEL_BITS`] fractional bits, culled or
+//!    re-wound so that their integer edge functions are ≥ 0 inside, and binned into
+//!    [`TILE_SIZE`]² tiles in triangle order.
+//! 2. **Raster** (parallel over tiles): each tile keeps, per sample, the depth (1/w, larger is
+//!    nearer) and the id of the nearest triangle: a visibility buffer. Coverage uses exact
+//!    integer edge functions with the top-left fill rule, so a sample on an edge shared by two
+//!    triangles belongs to exactly one of them, whatever the submission order.
+//! 3. **Resolve** (same task): per pixel the covered samples are grouped by triangle; each
+//!    distinct triangle is shaded once, at the centroid of its covered samples, with
+//!    perspective-correct barycentrics; colours are weighted by coverage, the uncovered samples
+//!    take the background, and the sum is converted to 8-bit sRGB once.
+//!
+//! **Invariant:** no tile reads another tile's results and nothing is reduced across tiles, so
+//! the output is byte-identical for any thread count. Ties in depth go to the triangle that
+//! comes first in scene order (scene item, then triangle index), as tiles process triangles in
+//! that order and only a strictly nearer sample replaces a stored one.
+
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+
+use super::camera::Camera;
+use super::image::{RgbImage, linear_to_srgb8};
+
+/// Fractional bits of the fixed-point screen coordinates (1/256 pixel).
+pub const SUBPIXEL_BITS: u32 = 8;
+/// Tiles are `TILE_SIZE` × `TILE_SIZE` pixels.
+pub const TILE_SIZE: u32 = 32;
+/// Triangles are clipped this many pixels outside the image (keeps fixed point in range).
+pub const GUARD_BAND_PX: f32 = 2048.0;
+
+const SUB: i64 = 1 << SUBPIXEL_BITS;
+const TILE: usize = TILE_SIZE as usize;
+const NO_TRIANGLE: u32 = u32::MAX;
+const MAX_SAMPLES: usize = 16;
+
+/// One scene item: an indexed triangle mesh in world space. Several make a scene.
+///
+/// `normals` and `uvs` are per vertex like `positions`, or empty: without normals a fragment
+/// gets the geometric face normal (counter-clockwise front), without UVs it gets `(0, 0)`.
+#[derive(Clone, Copy, Debug)]
+pub struct Triangles<'a> {
+    pub positions: &'a [Vec3],
+    pub normals: &'a [Vec3],
+    pub uvs: &'a [Vec2],
+    pub indices: &'a [[u32; 3]],
+    /// A label handed to the shader (skin, eye, teeth, …).
+    pub part: u16,
+}
+
+/// What the shader sees for one (pixel, triangle) pair.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Fragment {
+    /// World-space position.
+    pub position: Vec3,
+    /// Interpolated vertex normal, normalised (not flipped for back faces).
+    pub normal: Vec3,
+    pub uv: Vec2,
+    pub part: u16,
+    /// Index of the triangle in its scene item's `indices`.
+    pub triangle: u32,
+    /// The triangle's vertex indices.
+    pub vertex: [u32; 3],
+    /// Perspective-correct barycentric coordinates with respect to `vertex`.
+    pub barycentric: Vec3,
+    /// Unit vector from `position` towards the eye.
+    pub view_dir: Vec3,
+    pub pixel: (u32, u32),
+}
+
+/// Colours fragments and the background, in linear RGB.
+pub trait Shader: Sync {
+    fn shade(&self, fragment: &Fragment) -> Vec3;
+    fn background(&self, x: u32, y: u32) -> Vec3;
+}
+
+/// Samples per pixel and their positions (Direct3D's standard multisample patterns, given in
+/// 1/16 pixel from the pixel centre; rotated/sparse grids with good edge coverage).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum SampleCount {
+    /// One sample at the pixel centre: no anti-aliasing.
+    X1,
+    /// 4-sample rotated grid.
+    X4,
+    /// 8 samples.
+    X8,
+    /// 16 samples.
+    #[default]
+    X16,
+}
+
+impl SampleCount {
+    pub fn count(self) -> usize {
+        self.offsets_sixteenths().len()
+    }
+
+    /// Sample offsets from the pixel centre in 1/16 pixel, x right, y down.
+    pub fn offsets_sixteenths(self) -> &'static [(i8, i8)] {
+        match self {
+            SampleCount::X1 => &[(0, 0)],
+            SampleCount::X4 => &[(-2, -6), (6, -2), (-6, 2), (2, 6)],
+            SampleCount::X8 => &[(1, -3), (-1, 3), (5, 1), (-3, -5), (-5, 5), (-7, -1), (3, 7), (7, -7)],
+            SampleCount::X16 => &[
+                (1, 1),
+                (-1, -3),
+                (-3, 2),
+                (4, -1),
+                (-5, -2),
+                (2, 5),
+                (5, 3),
+                (3, -5),
+                (-2, 6),
+                (0, -7),
+                (-4, -6),
+                (-6, 4),
+                (-8, 0),
+                (7, -4),
+                (6, 7),
+                (-7, -8),
+            ],
+        }
+    }
+
+    /// Sample positions inside the pixel in fixed point (1/256 px from the pixel's top-left).
+    fn fixed_offsets(self) -> Vec<(i64, i64)> {
+        self.offsets_sixteenths()
+            .iter()
+            .map(|&(dx, dy)| (SUB / 2 + i64::from(dx) * SUB / 16, SUB / 2 + i64::from(dy) * SUB / 16))
+            .collect()
+    }
+}
+
+/// How to render.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RenderOptions {
+    pub samples_per_pixel: SampleCount,
+    /// `None`: rayon's global pool; `Some(n)`: a pool of `n` threads (`Some(1)` runs on the
+    /// calling thread). The output does not depend on it.
+    pub threads: Option<usize>,
+    /// Drop triangles that are clockwise as seen by the camera (counter-clockwise is front).
+    pub backface_culling: bool,
+}
+
+impl Default for RenderOptions {
+    fn default() -> Self {
+        RenderOptions { samples_per_pixel: SampleCount::X16, threads: None, backface_culling: true }
+    }
+}
+
+/// The nearest surface at one sample.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    /// Index of the scene item.
+    pub item: u32,
+    /// Index of the triangle in that item.
+    pub triangle: u32,
+    /// Distance in front of the camera along its axis (view-space −z).
+    pub distance: f32,
+}
+
+/// The visibility buffer of a frame: the nearest surface at every sample.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Visibility {
+    pub width: u32,
+    pub height: u32,
+    pub samples_per_pixel: usize,
+    /// `samples[(y * width + x) * samples_per_pixel + s]`.
+    pub samples: Vec<Option<Hit>>,
+}
+
+impl Visibility {
+    /// The samples of pixel (`x`, `y`).
+    pub fn pixel(&self, x: u32, y: u32) -> &[Option<Hit>] {
+        let n = self.samples_per_pixel;
+        let i = (y as usize * self.width as usize + x as usize) * n;
+        &self.samples[i..i + n]
+    }
+
+    /// How many samples of pixel (`x`, `y`) show triangle `triangle` of scene item `item`.
+    pub fn coverage(&self, x: u32, y: u32, item: u32, triangle: u32) -> usize {
+        self.pixel(x, y).iter().flatten().filter(|h| h.item == item && h.triangle == triangle).count()
+    }
+
+    /// How many samples of pixel (`x`, `y`) show any surface.
+    pub fn covered(&self, x: u32, y: u32) -> usize {
+        self.pixel(x, y).iter().flatten().count()
+    }
+}
+
+/// Renders `scene` as seen by `camera`.
+pub fn render(scene: &[Triangles], camera: &Camera, shader: &impl Shader, options: &RenderOptions) -> RgbImage {
+    let setup = Setup::new(scene, camera, options.backface_culling);
+    let pattern = options.samples_per_pixel.fixed_offsets();
+    let tiles = run_tiles(&setup, options.threads, |buffers, tile| {
+        let (x0, y0, w, h) = setup.tile_rect(tile);
+        rasterize_tile(&setup, tile, &pattern, buffers);
+        resolve_tile(&setup, scene, camera, shader, &pattern, buffers, x0, y0, w, h)
+    });
+    let mut image = RgbImage::new(camera.width, camera.height);
+    let stride = camera.width as usize * 3;
+    for (tile, rgb) in tiles.iter().enumerate() {
+        let (x0, y0, w, h) = setup.tile_rect(tile);
+        for row in 0..h {
+            let dst = (y0 + row) * stride + x0 * 3;
+            image.data[dst..dst + w * 3].copy_from_slice(&rgb[row * w * 3..(row + 1) * w * 3]);
+        }
+    }
+    image
+}
+
+/// The visibility buffer `render` would resolve (same coverage, same depth tie-breaks).
+pub fn visibility(scene: &[Triangles], camera: &Camera, options: &RenderOptions) -> Visibility {
+    let setup = Setup::new(scene, camera, options.backface_culling);
+    let pattern = options.samples_per_pixel.fixed_offsets();
+    let n = pattern.len();
+    let tiles = run_tiles(&setup, options.threads, |buffers, tile| {
+        let (_, _, w, h) = setup.tile_rect(tile);
+        rasterize_tile(&setup, tile, &pattern, buffers);
+        let mut out = Vec::with_capacity(w * h * n);
+        for row in 0..h {
+            for col in 0..w {
+                let base = (row * TILE + col) * n;
+                for s in 0..n {
+                    let id = buffers.id[base + s];
+                    out.push((id != NO_TRIANGLE).then(|| {
+                        let t = &setup.shade[id as usize];
+                        Hit { item: t.item, triangle: t.triangle, distance: 1.0 / buffers.depth[base + s] }
+                    }));
+                }
+            }
+        }
+        out
+    });
+    let (width, height) = (camera.width as usize, camera.height as usize);
+    let mut samples = vec![None; width * height * n];
+    for (tile, hits) in tiles.iter().enumerate() {
+        let (x0, y0, w, h) = setup.tile_rect(tile);
+        for row in 0..h {
+            let dst = ((y0 + row) * width + x0) * n;
+            samples[dst..dst + w * n].copy_from_slice(&hits[row * w * n..(row + 1) * w * n]);
+        }
+    }
+    Visibility { width: camera.width, height: camera.height, samples_per_pixel: n, samples }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Setup: transform, clip, snap, bin.
+
+/// Hot per-triangle data for the raster loop.
+#[derive(Clone, Copy, Debug)]
+struct RasterTri {
+    /// Edge k (opposite vertex k): `E = a·x + b·y + c` on fixed-point sample positions; the
+    /// sample is covered iff `E ≥ 0` for all three (the fill-rule bias is folded into `c`).
+    a: [i64; 3],
+    b: [i64; 3],
+    c: [i64; 3],
+    /// Inclusive pixel bounds, clamped to the image: x0, y0, x1, y1.
+    bbox: [i32; 4],
+    /// Depth plane: `1/w = z0 + zx·(x − ox) + zy·(y − oy)` in pixel units.
+    z0: f32,
+    zx: f32,
+    zy: f32,
+    ox: f32,
+    oy: f32,
+}
+
+/// Cold per-triangle data for shading.
+#[derive(Clone, Copy, Debug)]
+struct ShadeTri {
+    item: u32,
+    triangle: u32,
+    /// Snapped screen positions (pixels) of the (possibly clipped) triangle's corners.
+    p: [[f64; 2]; 3],
+    inv_w: [f64; 3],
+    /// Barycentric coordinates of each corner with respect to the original triangle.
+    bary: [Vec3; 3],
+}
+
+struct Setup {
+    raster: Vec<RasterTri>,
+    shade: Vec<ShadeTri>,
+    width: usize,
+    height: usize,
+    tiles_x: usize,
+    tiles_y: usize,
+    /// Triangle ids of tile t: `bin_ids[bin_start[t]..bin_start[t + 1]]`, in scene order.
+    bin_start: Vec<usize>,
+    bin_ids: Vec<u32>,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct ClipVertex {
+    h: Vec3,
+    bary: Vec3,
+}
+
+/// Signed distances of a homogeneous pixel point to the clip planes (≥ 0 inside).
+fn plane_distances(h: Vec3, near: f32, width: f32, height: f32) -> [f32; 5] {
+    [
+        h.z - near,
+        h.x + GUARD_BAND_PX * h.z,
+        (width + GUARD_BAND_PX) * h.z - h.x,
+        h.y + GUARD_BAND_PX * h.z,
+        (height + GUARD_BAND_PX) * h.z - h.y,
+    ]
+}
+
+fn outcode(h: Vec3, near: f32, width: f32, height: f32) -> u8 {
+    plane_distances(h, near, width, height)
+        .iter()
+        .enumerate()
+        .fold(0, |code, (i, &d)| if d >= 0.0 { code } else { code | 1 << i })
+}
+
+impl Setup {
+    fn new(scene: &[Triangles], camera: &Camera, backface_culling: bool) -> Setup {
+        assert!(camera.width > 0 && camera.height > 0, "camera image size must be positive");
+        assert!(camera.width <= 16_384 && camera.height <= 16_384, "camera image size must be at most 16384");
+        let view = camera.view();
+        let near = camera.near();
+        let (wf, hf) = (camera.width as f32, camera.height as f32);
+        let mut setup = Setup {
+            raster: Vec::new(),
+            shade: Vec::new(),
+            width: camera.width as usize,
+            height: camera.height as usize,
+            tiles_x: camera.width.div_ceil(TILE_SIZE) as usize,
+            tiles_y: camera.height.div_ceil(TILE_SIZE) as usize,
+            bin_start: Vec::new(),
+            bin_ids: Vec::new(),
+        };
+        let total: usize = scene.iter().map(|t| t.indices.len()).sum();
+        setup.raster.reserve(total);
+        setup.shade.reserve(total);
+        let mut homogeneous = Vec::new();
+        let mut codes = Vec::new();
+        for (item, tris) in scene.iter().enumerate() {
+            let n = tris.positions.len();
+            assert!(
+                tris.normals.is_empty() || tris.normals.len() == n,
+                "scene item {item}: {} normals for {n} positions",
+                tris.normals.len()
+            );
+            assert!(
+                tris.uvs.is_empty() || tris.uvs.len() == n,
+                "scene item {item}: {} uvs for {n} positions",
+                tris.uvs.len()
+            );
+            homogeneous.clear();
+            homogeneous
+                .extend(tris.positions.iter().map(|&p| camera.view_to_homogeneous_pixel(view.transform_point3(p))));
+            codes.clear();
+            codes.extend(homogeneous.iter().map(|&h| outcode(h, near, wf, hf)));
+            for (t, idx) in tris.indices.iter().enumerate() {
+                let [i0, i1, i2] = idx.map(|i| i as usize);
+                assert!(
+                    i0 < n && i1 < n && i2 < n,
+                    "scene item {item}, triangle {t}: index out of range {idx:?} ({n} vertices)"
+                );
+                let (c0, c1, c2) = (codes[i0], codes[i1], codes[i2]);
+                if c0 & c1 & c2 != 0 {
+                    continue; // entirely outside one plane
+                }
+                let corners = [
+                    ClipVertex { h: homogeneous[i0], bary: Vec3::X },
+                    ClipVertex { h: homogeneous[i1], bary: Vec3::Y },
+                    ClipVertex { h: homogeneous[i2], bary: Vec3::Z },
+                ];
+                let (item, triangle) = (item as u32, t as u32);
+                if c0 | c1 | c2 == 0 {
+                    setup.emit(corners, item, triangle, backface_culling);
+                } else {
+                    let (poly, len) = clip_polygon(corners, near, wf, hf);
+                    for k in 1..len.saturating_sub(1) {
+                        setup.emit([poly[0], poly[k], poly[k + 1]], item, triangle, backface_culling);
+                    }
+                }
+            }
+        }
+        setup.bin();
+        setup
+    }
+
+    /// Snaps, orients and stores one (possibly clipped) triangle.
+    fn emit(&mut self, v: [ClipVertex; 3], item: u32, triangle: u32, backface_culling: bool) {
+        let snap = |h: Vec3| -> [i64; 2] {
+            let inv = 1.0 / h.z;
+            [(h.x * inv * SUB as f32).round() as i64, (h.y * inv * SUB as f32).round() as i64]
+        };
+        let mut q = v.map(|c| snap(c.h));
+        let mut v = v;
+        let area2 = (q[1][0] - q[0][0]) * (q[2][1] - q[0][1]) - (q[1][1] - q[0][1]) * (q[2][0] - q[0][0]);
+        if area2 == 0 {
+            return;
+        }
+        // With y down, a triangle that is counter-clockwise as seen by the viewer has area2 < 0.
+        if area2 < 0 {
+            q.swap(1, 2);
+            v.swap(1, 2);
+        } else if backface_culling {
+            return;
+        }
+        let min_x = q.iter().map(|p| p[0]).min().unwrap();
+        let max_x = q.iter().map(|p| p[0]).max().unwrap();
+        let min_y = q.iter().map(|p| p[1]).min().unwrap();
+        let max_y = q.iter().map(|p| p[1]).max().unwrap();
+        // Sample offsets lie in [0, SUB) within their pixel.
+        let bbox = [
+            min_x.div_euclid(SUB).max(0) as i32,
+            min_y.div_euclid(SUB).max(0) as i32,
+            max_x.div_euclid(SUB).min(self.width as i64 - 1) as i32,
+            max_y.div_euclid(SUB).min(self.height as i64 - 1) as i32,
+        ];
+        if bbox[0] > bbox[2] || bbox[1] > bbox[3] {
+            return;
+        }
+        let mut a = [0i64; 3];
+        let mut b = [0i64; 3];
+        let mut c = [0i64; 3];
+        for k in 0..3 {
+            let (pi, pj) = (q[(k + 1) % 3], q[(k + 2) % 3]);
+            a[k] = pi[1] - pj[1];
+            b[k] = pj[0] - pi[0];
+            c[k] = -(a[k] * pi[0] + b[k] * pi[1]);
+            // Top-left rule: samples exactly on an edge belong to the triangle only if the edge
+            // is a left edge (interior to its right) or a horizontal top edge (interior below).
+            let top_left = a[k] > 0 || (a[k] == 0 && b[k] > 0);
+            if !top_left {
+                c[k] -= 1;
+            }
+        }
+        let p = q.map(|p| [p[0] as f64 / SUB as f64, p[1] as f64 / SUB as f64]);
+        let inv_w = v.map(|c| 1.0 / f64::from(c.h.z));
+        let (d1x, d1y) = (p[1][0] - p[0][0], p[1][1] - p[0][1]);
+        let (d2x, d2y) = (p[2][0] - p[0][0], p[2][1] - p[0][1]);
+        let det = d1x * d2y - d1y * d2x;
+        let (dz1, dz2) = (inv_w[1] - inv_w[0], inv_w[2] - inv_w[0]);
+        let zx = (dz1 * d2y - dz2 * d1y) / det;
+        let zy = (dz2 * d1x - dz1 * d2x) / det;
+        self.raster.push(RasterTri {
+            a,
+            b,
+            c,
+            bbox,
+            z0: inv_w[0] as f32,
+            zx: zx as f32,
+            zy: zy as f32,
+            ox: p[0][0] as f32,
+            oy: p[0][1] as f32,
+        });
+        self.shade.push(ShadeTri { item, triangle, p, inv_w, bary: v.map(|c| c.bary) });
+    }
+
+    /// Fills the per-tile triangle lists, each in scene order.
+    fn bin(&mut self) {
+        let tile_count = self.tiles_x * self.tiles_y;
+        let mut pairs: Vec<(u32, u32)> = Vec::with_capacity(self.raster.len() * 2);
+        let ts = TILE_SIZE as i32;
+        for (id, t) in self.raster.iter().enumerate() {
+            let [x0, y0, x1, y1] = t.bbox;
+            let (tx0, ty0, tx1, ty1) = (x0 / ts, y0 / ts, x1 / ts, y1 / ts);
+            let single = tx0 == tx1 && ty0 == ty1;
+            for ty in ty0..=ty1 {
+                for tx in tx0..=tx1 {
+                    if !single && !t.may_touch_rect(tx * ts, ty * ts, (tx + 1) * ts, (ty + 1) * ts) {
+                        continue;
+                    }
+                    pairs.push(((ty as usize * self.tiles_x + tx as usize) as u32, id as u32));
+                }
+            }
+        }
+        // Counting sort by tile, stable, so every list stays in scene order.
+        let mut start = vec![0usize; tile_count + 1];
+        for &(tile, _) in &pairs {
+            start[tile as usize + 1] += 1;
+        }
+        for i in 0..tile_count {
+            start[i + 1] += start[i];
+        }
+        let mut next = start.clone();
+        let mut ids = vec![0u32; pairs.len()];
+        for &(tile, id) in &pairs {
+            ids[next[tile as usize]] = id;
+            next[tile as usize] += 1;
+        }
+        self.bin_start = start;
+        self.bin_ids = ids;
+    }
+
+    fn tile_count(&self) -> usize {
+        self.tiles_x * self.tiles_y
+    }
+
+    /// Pixel rectangle of a tile: x0, y0, width, height.
+    fn tile_rect(&self, tile: usize) -> (usize, usize, usize, usize) {
+        let (x0, y0) = ((tile % self.tiles_x) * TILE, (tile / self.tiles_x) * TILE);
+        (x0, y0, TILE.min(self.width - x0), TILE.min(self.height - y0))
+    }
+}
+
+impl RasterTri {
+    /// False when some edge excludes every point of the pixel rectangle [x0, x1) × [y0, y1).
+    fn may_touch_rect(&self, x0: i32, y0: i32, x1: i32, y1: i32) -> bool {
+        let (fx0, fy0, fx1, fy1) = (x0 as i64 * SUB, y0 as i64 * SUB, x1 as i64 * SUB, y1 as i64 * SUB);
+        (0..3).all(|k| {
+            let x = if self.a[k] > 0 { fx1 } else { fx0 };
+            let y = if self.b[k] > 0 { fy1 } else { fy0 };
+            self.a[k] * x + self.b[k] * y + self.c[k] >= 0
+        })
+    }
+}
+
+/// Sutherland–Hodgman against the five clip planes. Intersections are always computed from the
+/// inside end of an edge, so two triangles sharing an edge get bit-identical new vertices.
+fn clip_polygon(corners: [ClipVertex; 3], near: f32, width: f32, height: f32) -> ([ClipVertex; 9], usize) {
+    let zero = ClipVertex { h: Vec3::ZERO, bary: Vec3::ZERO };
+    let mut poly = [zero; 9];
+    poly[..3].copy_from_slice(&corners);
+    let mut len = 3;
+    for plane in 0..5 {
+        let dist = |v: &ClipVertex| plane_distances(v.h, near, width, height)[plane];
+        let mut out = [zero; 9];
+        let mut out_len = 0;
+        for i in 0..len {
+            let (cur, next) = (poly[i], poly[(i + 1) % len]);
+            let (dc, dn) = (dist(&cur), dist(&next));
+            if dc >= 0.0 {
+                out[out_len] = cur;
+                out_len += 1;
+            }
+            if (dc >= 0.0) != (dn >= 0.0) {
+                let (inside, outside, di, d_o) = if dc >= 0.0 { (cur, next, dc, dn) } else { (next, cur, dn, dc) };
+                let t = di / (di - d_o);
+                out[out_len] = ClipVertex {
+                    h: inside.h + (outside.h - inside.h) * t,
+                    bary: inside.bary + (outside.bary - inside.bary) * t,
+                };
+                out_len += 1;
+            }
+        }
+        poly = out;
+        len = out_len;
+        if len < 3 {
+            return (poly, 0);
+        }
+    }
+    (poly, len)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Raster and resolve, one tile at a time.
+
+/// Per-thread scratch for one tile: depth (1/w) and triangle id per sample.
+struct TileBuffers {
+    depth: Vec<f32>,
+    id: Vec<u32>,
+}
+
+impl TileBuffers {
+    fn new() -> Self {
+        TileBuffers { depth: vec![0.0; TILE * TILE * MAX_SAMPLES], id: vec![NO_TRIANGLE; TILE * TILE * MAX_SAMPLES] }
+    }
+}
+
+/// Runs `f` on every tile, in parallel unless `threads == Some(1)`, returning results in tile
+/// order. Each call sees only its own tile, so the results do not depend on scheduling.
+fn run_tiles<T: Send>(setup: &Setup, threads: Option<usize>, f: impl Fn(&mut TileBuffers, usize) -> T + Sync) -> Vec<T> {
+    let n = setup.tile_count();
+    let parallel = || (0..n).into_par_iter().map_init(TileBuffers::new, |b, t| f(b, t)).collect::<Vec<T>>();
+    match threads {
+        Some(1) => {
+            let mut buffers = TileBuffers::new();
+            (0..n).map(|t| f(&mut buffers, t)).collect()
+        }
+        Some(count) => match rayon::ThreadPoolBuilder::new().num_threads(count).build() {
+            Ok(pool) => pool.install(parallel),
+            // No threads to be had: the global pool gives the same bytes.
+            Err(_) => parallel(),
+        },
+        None => parallel(),
+    }
+}
+
+/// Fills the tile's visibility buffer (layout: `(row * TILE + col) * n + sample`).
+fn rasterize_tile(setup: &Setup, tile: usize, pattern: &[(i64, i64)], buffers: &mut TileBuffers) {
+    match pattern.len() {
+        1 => rasterize_tile_n::<1>(setup, tile, pattern, buffers),
+        4 => rasterize_tile_n::<4>(setup, tile, pattern, buffers),
+        8 => rasterize_tile_n::<8>(setup, tile, pattern, buffers),
+        16 => rasterize_tile_n::<16>(setup, tile, pattern, buffers),
+        n => unreachable!("unsupported sample count {n}"),
+    }
+}
+
+fn rasterize_tile_n<const N: usize>(setup: &Setup, tile: usize, pattern: &[(i64, i64)], buffers: &mut TileBuffers) {
+    let (tx0, ty0, tw, th) = setup.tile_rect(tile);
+    let used = TILE * TILE * N;
+    let depth = &mut buffers.depth[..used];
+    let ids = &mut buffers.id[..used];
+    depth.fill(0.0);
+    ids.fill(NO_TRIANGLE);
+    let pattern: &[(i64, i64); N] = pattern.try_into().expect("pattern length matches N");
+    let offsets_px: [(f32, f32); N] =
+        std::array::from_fn(|s| (pattern[s].0 as f32 / SUB as f32, pattern[s].1 as f32 / SUB as f32));
+    let (tx1, ty1) = ((tx0 + tw - 1) as i32, (ty0 + th - 1) as i32);
+    for &id in &setup.bin_ids[setup.bin_start[tile]..setup.bin_start[tile + 1]] {
+        let t = &setup.raster[id as usize];
+        let x0 = t.bbox[0].max(tx0 as i32);
+        let y0 = t.bbox[1].max(ty0 as i32);
+        let x1 = t.bbox[2].min(tx1);
+        let y1 = t.bbox[3].min(ty1);
+        if x0 > x1 || y0 > y1 {
+            continue;
+        }
+        // Edge value at each sample relative to the pixel's top-left corner.
+        let mut off = [[0i64; N]; 3];
+        let mut off_min = [i64::MAX; 3];
+        let mut off_max = [i64::MIN; 3];
+        for k in 0..3 {
+            for s in 0..N {
+                let o = t.a[k] * pattern[s].0 + t.b[k] * pattern[s].1;
+                off[k][s] = o;
+                off_min[k] = off_min[k].min(o);
+                off_max[k] = off_max[k].max(o);
+            }
+        }
+        let z_off: [f32; N] = std::array::from_fn(|s| t.zx * offsets_px[s].0 + t.zy * offsets_px[s].1);
+        let step_x = [t.a[0] * SUB, t.a[1] * SUB, t.a[2] * SUB];
+        for py in y0..=y1 {
+            let fy = i64::from(py) * SUB;
+            let fx = i64::from(x0) * SUB;
+            let mut e = [0i64; 3];
+            for k in 0..3 {
+                e[k] = t.a[k] * fx + t.b[k] * fy + t.c[k];
+            }
+            let z_row = t.zy * (py as f32 - t.oy);
+            let row_base = (py as usize - ty0) * TILE;
+            for px in x0..=x1 {
+                let (e0, e1, e2) = (e[0], e[1], e[2]);
+                e[0] += step_x[0];
+                e[1] += step_x[1];
+                e[2] += step_x[2];
+                if (e0 + off_max[0]) | (e1 + off_max[1]) | (e2 + off_max[2]) < 0 {
+                    continue; // no sample of this pixel is inside
+                }
+                let z_pixel = t.z0 + (t.zx * (px as f32 - t.ox) + z_row);
+                let base = (row_base + px as usize - tx0) * N;
+                let depth = &mut depth[base..base + N];
+                let ids = &mut ids[base..base + N];
+                if (e0 + off_min[0]) | (e1 + off_min[1]) | (e2 + off_min[2]) >= 0 {
+                    for s in 0..N {
+                        let z = z_pixel + z_off[s];
+                        if z > depth[s] {
+                            depth[s] = z;
+                            ids[s] = id;
+                        }
+                    }
+                } else {
+                    for s in 0..N {
+                        if (e0 + off[0][s]) | (e1 + off[1][s]) | (e2 + off[2][s]) >= 0 {
+                            let z = z_pixel + z_off[s];
+                            if z > depth[s] {
+                                depth[s] = z;
+                                ids[s] = id;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Shades the tile's pixels from its visibility buffer; returns `w * h * 3` sRGB bytes.
+#[allow(clippy::too_many_arguments)]
+fn resolve_tile(
+    setup: &Setup,
+    scene: &[Triangles],
+    camera: &Camera,
+    shader: &impl Shader,
+    pattern: &[(i64, i64)],
+    buffers: &TileBuffers,
+    x0: usize,
+    y0: usize,
+    w: usize,
+    h: usize,
+) -> Vec<u8> {
+    let n = pattern.len();
+    let inv_n = 1.0 / n as f32;
+    let mut out = Vec::with_capacity(w * h * 3);
+    // Distinct triangles of a pixel, in order of first appearance among its samples.
+    let mut group_id = [0u32; MAX_SAMPLES];
+    let mut group_count = [0u32; MAX_SAMPLES];
+    let mut group_sx = [0i64; MAX_SAMPLES];
+    let mut group_sy = [0i64; MAX_SAMPLES];
+    for row in 0..h {
+        for col in 0..w {
+            let (px, py) = ((x0 + col) as u32, (y0 + row) as u32);
+            let base = (row * TILE + col) * n;
+            let ids = &buffers.id[base..base + n];
+            let mut groups = 0;
+            for (s, &id) in ids.iter().enumerate() {
+                let g = match group_id[..groups].iter().position(|&g| g == id) {
+                    Some(g) => g,
+                    None => {
+                        group_id[groups] = id;
+                        group_count[groups] = 0;
+                        group_sx[groups] = 0;
+                        group_sy[groups] = 0;
+                        groups += 1;
+                        groups - 1
+                    }
+                };
+                group_count[g] += 1;
+                group_sx[g] += pattern[s].0;
+                group_sy[g] += pattern[s].1;
+            }
+            let mut colour = Vec3::ZERO;
+            for g in 0..groups {
+                let weight = group_count[g] as f32 * inv_n;
+                let c = if group_id[g] == NO_TRIANGLE {
+                    shader.background(px, py)
+                } else {
+                    let count = f64::from(group_count[g]) * SUB as f64;
+                    let x = f64::from(px) + group_sx[g] as f64 / count;
+                    let y = f64::from(py) + group_sy[g] as f64 / count;
+                    let fragment = fragment(&setup.shade[group_id[g] as usize], scene, camera, x, y, (px, py));
+                    shader.shade(&fragment)
+                };
+                colour += c * weight;
+            }
+            out.extend_from_slice(&[linear_to_srgb8(colour.x), linear_to_srgb8(colour.y), linear_to_srgb8(colour.z)]);
+        }
+    }
+    out
+}
+
+/// Interpolates the triangle's attributes at pixel position (`x`, `y`) (perspective-correct).
+fn fragment(t: &ShadeTri, scene: &[Triangles], camera: &Camera, x: f64, y: f64, pixel: (u32, u32)) -> Fragment {
+    let p = &t.p;
+    let edge = |a: [f64; 2], b: [f64; 2]| (b[0] - a[0]) * (y - a[1]) - (b[1] - a[1]) * (x - a[0]);
+    // Screen-space barycentrics (up to a common factor), then weighted by 1/w.
+    let l = [edge(p[1], p[2]), edge(p[2], p[0]), edge(p[0], p[1])];
+    let mut wts = [0f64; 3];
+    for k in 0..3 {
+        wts[k] = l[k].max(0.0) * t.inv_w[k];
+    }
+    let sum = wts[0] + wts[1] + wts[2];
+    let b = if sum > 0.0 && sum.is_finite() { wts.map(|w| w / sum) } else { [1.0 / 3.0; 3] };
+    let bary = t.bary[0] * b[0] as f32 + t.bary[1] * b[1] as f32 + t.bary[2] * b[2] as f32;
+    let tris = &scene[t.item as usize];
+    let vertex = tris.indices[t.triangle as usize];
+    let [i0, i1, i2] = vertex.map(|i| i as usize);
+    let pos = tris.positions;
+    let position = pos[i0] * bary.x + pos[i1] * bary.y + pos[i2] * bary.z;
+    let face_normal = || (pos[i1] - pos[i0]).cross(pos[i2] - pos[i0]).normalize_or_zero();
+    let normal = if tris.normals.is_empty() {
+        face_normal()
+    } else {
+        let nm = tris.normals;
+        let n = (nm[i0] * bary.x + nm[i1] * bary.y + nm[i2] * bary.z).normalize_or_zero();
+        if n == Vec3::ZERO { face_normal() } else { n }
+    };
+    let uv = if tris.uvs.is_empty() {
+        Vec2::ZERO
+    } else {
+        tris.uvs[i0] * bary.x + tris.uvs[i1] * bary.y + tris.uvs[i2] * bary.z
+    };
+    Fragment {
+        position,
+        normal,
+        uv,
+        part: tris.part,
+        triangle: t.triangle,
+        vertex,
+        barycentric: bary,
+        view_dir: (camera.eye - position).normalize_or_zero(),
+        pixel,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use sha2::{Digest, Sha256};
+
+    const S: u32 = 64;
+
+    /// Looks down −z at the z = 0 plane, where one world unit is one pixel.
+    fn camera(size: u32) -> Camera {
+        Camera {
+            eye: Vec3::new(0.0, 0.0, size as f32 / 2.0),
+            target: Vec3::ZERO,
+            up: Vec3::Y,
+            fov_y_degrees: 90.0,
+            width: size,
+            height: size,
+        }
+    }
+
+    /// World point at pixel coordinates (`x`, `y`) of [`camera`]`(S)`, at height `z`.
+    fn pix(x: f32, y: f32, z: f32) -> Vec3 {
+        Vec3::new(x - S as f32 / 2.0, S as f32 / 2.0 - y, z)
+    }
+
+    fn item<'a>(positions: &'a [Vec3], indices: &'a [[u32; 3]], part: u16) -> Triangles<'a> {
+        Triangles { positions, normals: &[], uvs: &[], indices, part }
+    }
+
+    fn opts(samples: SampleCount) -> RenderOptions {
+        RenderOptions { samples_per_pixel: samples, threads: Some(1), backface_culling: false }
+    }
+
+    /// Colour by part: 0 white, 1 red, 2 green; black background.
+    struct PartShader;
+    impl Shader for PartShader {
+        fn shade(&self, f: &Fragment) -> Vec3 {
+            match f.part {
+                0 => Vec3::ONE,
+                1 => Vec3::X,
+                _ => Vec3::Y,
+            }
+        }
+        fn background(&self, _: u32, _: u32) -> Vec3 {
+            Vec3::ZERO
+        }
+    }
+
+    /// Uses every fragment attribute, so interpolation changes show up in hashes.
+    struct Busy;
+    impl Shader for Busy {
+        fn shade(&self, f: &Fragment) -> Vec3 {
+            let light = Vec3::new(0.3, 0.5, 0.8).normalize();
+            let lambert = f.normal.dot(light).abs();
+            let tint = Vec3::new(
+                0.2 + 0.8 * f.uv.x.fract().abs(),
+                0.2 + 0.1 * f32::from(f.part % 7),
+                0.3 + 0.5 * (f.position.z * 0.05).sin().abs(),
+            );
+            tint * (0.2 + 0.8 * lambert) * (0.5 + 0.5 * f.view_dir.z.abs())
+        }
+        fn background(&self, x: u32, y: u32) -> Vec3 {
+            Vec3::new(x as f32 / 200.0, 0.1, y as f32 / 200.0)
+        }
+    }
+
+    /// Knuth's MMIX LCG.
+    struct Lcg(u64);
+    impl Lcg {
+        fn next_f32(&mut self) -> f32 {
+            self.0 = self.0.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+            (self.0 >> 40) as f32 / (1u64 << 24) as f32
+        }
+    }
+
+    struct Mesh {
+        positions: Vec<Vec3>,
+        normals: Vec<Vec3>,
+        uvs: Vec<Vec2>,
+        indices: Vec<[u32; 3]>,
+    }
+
+    /// `count` random triangles scattered over a `w` × `h` image of a perspective camera.
+    fn random_mesh(seed: u64, count: usize, spread: f32) -> Mesh {
+        let mut rng = Lcg(seed);
+        let mut mesh = Mesh { positions: vec![], normals: vec![], uvs: vec![], indices: vec![] };
+        for t in 0..count {
+            let centre = Vec3::new(
+                (rng.next_f32() - 0.5) * spread,
+                (rng.next_f32() - 0.5) * spread,
+                (rng.next_f32() - 0.5) * spread * 0.5,
+            );
+            for _ in 0..3 {
+                let p = centre + (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5) * spread * 0.3;
+                mesh.positions.push(p);
+                mesh.normals.push(Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, 1.0).normalize());
+                mesh.uvs.push(Vec2::new(rng.next_f32() * 3.0, rng.next_f32()));
+            }
+            let i = 3 * t as u32;
+            mesh.indices.push([i, i + 1, i + 2]);
+        }
+        mesh
+    }
+
+    fn random_scene_camera(width: u32, height: u32) -> Camera {
+        Camera {
+            eye: Vec3::new(3.0, 2.0, 30.0),
+            target: Vec3::ZERO,
+            up: Vec3::Y,
+            fov_y_degrees: 35.0,
+            width,
+            height,
+        }
+    }
+
+    #[test]
+    fn single_triangle_covers_the_expected_pixels() {
+        // Right angle at (10, 10), hypotenuse x + y = 60.
+        let positions = [pix(10.0, 10.0, 0.0), pix(50.0, 10.0, 0.0), pix(10.0, 50.0, 0.0)];
+        let indices = [[0, 1, 2]];
+        let scene = [item(&positions, &indices, 0)];
+        let vis = visibility(&scene, &camera(S), &opts(SampleCount::X16));
+        assert_eq!(vis.coverage(20, 20, 0, 0), 16);
+        assert_eq!(vis.coverage(10, 10, 0, 0), 16, "left and top edges are included");
+        assert_eq!(vis.covered(9, 20), 0);
+        assert_eq!(vis.covered(20, 9), 0);
+        assert_eq!(vis.covered(45, 45), 0);
+        assert_eq!(vis.covered(5, 5), 0);
+        let on_edge = vis.covered(29, 30);
+        assert!(on_edge > 0 && on_edge < 16, "diagonal pixel partly covered: {on_edge}");
+        // Centre samples: exactly the pixels whose centre is inside.
+        let vis1 = visibility(&scene, &camera(S), &opts(SampleCount::X1));
+        for y in 0..S {
+            for x in 0..S {
+                let (cx, cy) = (x as f32 + 0.5, y as f32 + 0.5);
+                let inside = cx > 10.0 && cy > 10.0 && cx + cy < 60.0;
+                assert_eq!(vis1.covered(x, y) == 1, inside, "pixel ({x}, {y})");
+            }
+        }
+        let hit = vis.pixel(20, 20)[0].unwrap();
+        assert!((hit.distance - 32.0).abs() < 1e-3, "{hit:?}");
+    }
+
+    #[test]
+    fn backface_culling_drops_clockwise_triangles() {
+        let cw = [pix(10.0, 10.0, 0.0), pix(50.0, 10.0, 0.0), pix(10.0, 50.0, 0.0)];
+        let ccw = [cw[0], cw[2], cw[1]];
+        let indices = [[0, 1, 2]];
+        let culling = RenderOptions { backface_culling: true, ..opts(SampleCount::X4) };
+        assert_eq!(visibility(&[item(&cw, &indices, 0)], &camera(S), &culling).covered(20, 20), 0);
+        assert_eq!(visibility(&[item(&ccw, &indices, 0)], &camera(S), &culling).covered(20, 20), 4);
+    }
+
+    #[test]
+    fn shared_edges_leave_no_gap_and_no_double_coverage() {
+        // A jittered 6 × 6 grid of quads over pixels [8, 56)², border vertices on the grid.
+        let n = 6;
+        let mut rng = Lcg(7);
+        let mut positions = vec![];
+        for j in 0..=n {
+            for i in 0..=n {
+                let border = i == 0 || j == 0 || i == n || j == n;
+                let jitter = |r: &mut Lcg| if border { 0.0 } else { (r.next_f32() - 0.5) * 5.3 };
+                let (x, y) = (8.0 + 8.0 * i as f32 + jitter(&mut rng), 8.0 + 8.0 * j as f32 + jitter(&mut rng));
+                positions.push(pix(x, y, 0.0));
+            }
+        }
+        let mut indices = vec![];
+        for j in 0..n {
+            for i in 0..n {
+                let v = |i: u32, j: u32| j * (n + 1) + i;
+                let (a, b, c, d) = (v(i, j), v(i + 1, j), v(i + 1, j + 1), v(i, j + 1));
+                indices.push([a, d, c]);
+                indices.push([a, c, b]);
+            }
+        }
+        let o = opts(SampleCount::X16);
+        let mut count = vec![0u8; (S * S * 16) as usize];
+        for t in 0..indices.len() {
+            let vis = visibility(&[item(&positions, &indices[t..t + 1], 0)], &camera(S), &o);
+            for (c, hit) in count.iter_mut().zip(&vis.samples) {
+                *c += hit.is_some() as u8;
+            }
+        }
+        for y in 0..S {
+            for x in 0..S {
+                for s in 0..16 {
+                    let c = count[((y * S + x) * 16 + s) as usize];
+                    let inside = (8..56).contains(&x) && (8..56).contains(&y);
+                    assert_eq!(c, inside as u8, "pixel ({x}, {y}) sample {s}");
+                }
+            }
+        }
+        // Rendered together in one colour, the seams are invisible.
+        let img = render(&[item(&positions, &indices, 0)], &camera(S), &PartShader, &o);
+        for y in 8..56 {
+            for x in 8..56 {
+                assert_eq!(img.pixel(x, y), [255; 3], "pixel ({x}, {y})");
+            }
+        }
+        // Two colours: coverage of the two sides adds up to one along the diagonal.
+        let quad = [pix(8.0, 8.0, 0.0), pix(56.0, 8.0, 0.0), pix(56.0, 56.0, 0.0), pix(8.0, 56.0, 0.0)];
+        let (upper, lower) = ([[0u32, 2, 1]], [[0u32, 3, 2]]);
+        let scene = [item(&quad, &upper, 1), item(&quad, &lower, 2)];
+        let vis = visibility(&scene, &camera(S), &o);
+        for i in 8..56 {
+            assert_eq!(vis.coverage(i, i, 0, 0) + vis.coverage(i, i, 1, 0), 16);
+            assert!(vis.coverage(i, i, 0, 0) > 0 && vis.coverage(i, i, 1, 0) > 0);
+        }
+    }
+
+    #[test]
+    fn nearer_triangle_wins_regardless_of_order() {
+        let far = [pix(5.0, 5.0, 0.0), pix(5.0, 40.0, 0.0), pix(40.0, 5.0, 0.0)];
+        let near = [pix(20.0, 20.0, 3.0), pix(20.0, 60.0, 3.0), pix(60.0, 20.0, 3.0)];
+        let both: Vec<Vec3> = far.iter().chain(&near).copied().collect();
+        let o = opts(SampleCount::X4);
+        let cam = camera(S);
+        let (x, y) = (25, 25);
+        for order in [[[0u32, 1, 2], [3, 4, 5]], [[3, 4, 5], [0, 1, 2]]] {
+            let vis = visibility(&[item(&both, &order, 0)], &cam, &o);
+            let near_index = if order[0][0] == 3 { 0 } else { 1 };
+            assert_eq!(vis.coverage(x, y, 0, near_index), 4, "order {order:?}");
+            assert_eq!(vis.coverage(10, 10, 0, 1 - near_index), 4);
+        }
+        let tri = [[0u32, 1, 2]];
+        for (a, b, near_item) in [(&far, &near, 1), (&near, &far, 0)] {
+            let vis = visibility(&[item(a, &tri, 0), item(b, &tri, 1)], &cam, &o);
+            assert_eq!(vis.coverage(x, y, near_item, 0), 4);
+        }
+        // Exact ties go to the first in scene order.
+        let twice = [[0u32, 1, 2], [0, 1, 2]];
+        let vis = visibility(&[item(&far, &twice, 0)], &cam, &o);
+        assert_eq!(vis.coverage(10, 10, 0, 0), 4);
+        let vis = visibility(&[item(&far, &tri, 0), item(&far, &tri, 1)], &cam, &o);
+        assert_eq!(vis.coverage(10, 10, 0, 0), 4);
+    }
+
+    /// White where the fragment lies on the plane y = −1 and projects back onto the pixel's
+    /// sample centroid (perspective-correct interpolation), red otherwise.
+    struct FloorCheck(Camera);
+    impl Shader for FloorCheck {
+        fn shade(&self, f: &Fragment) -> Vec3 {
+            let p = self.0.project(f.position).unwrap_or(Vec3::splat(-1e9));
+            let (cx, cy) = (f.pixel.0 as f32 + 0.5, f.pixel.1 as f32 + 0.5);
+            let ok = (f.position.y + 1.0).abs() < 1e-3 && (p.x - cx).abs() < 0.02 && (p.y - cy).abs() < 0.02;
+            if ok { Vec3::ONE } else { Vec3::X }
+        }
+        fn background(&self, _: u32, _: u32) -> Vec3 {
+            Vec3::ZERO
+        }
+    }
+
+    #[test]
+    fn triangles_crossing_the_near_plane_are_clipped() {
+        let cam = Camera {
+            eye: Vec3::ZERO,
+            target: Vec3::new(0.0, 0.0, -1.0),
+            up: Vec3::Y,
+            fov_y_degrees: 60.0,
+            width: S,
+            height: S,
+        };
+        // A floor from 10 behind the camera to 100 in front of it.
+        let floor = [
+            Vec3::new(-50.0, -1.0, 10.0),
+            Vec3::new(50.0, -1.0, 10.0),
+            Vec3::new(50.0, -1.0, -100.0),
+            Vec3::new(-50.0, -1.0, -100.0),
+        ];
+        let indices = [[0u32, 1, 2], [0, 2, 3]];
+        let scene = [item(&floor, &indices, 0)];
+        let o = RenderOptions { backface_culling: true, ..opts(SampleCount::X1) };
+        let vis = visibility(&scene, &cam, &o);
+        // The far edge's horizon is at y ≈ 32.55: below it floor, above it nothing.
+        for x in [0, 20, 32, 63] {
+            for y in 0..S {
+                assert_eq!(vis.covered(x, y) == 1, y >= 33, "pixel ({x}, {y})");
+            }
+        }
+        // Bottom row: the ray through y = 63.5 meets the floor at distance 1 / tan(30°)·32/31.5.
+        let expected = 1.0 / (30f32.to_radians().tan() * 31.5 / 32.0);
+        let hit = vis.pixel(32, 63)[0].unwrap();
+        assert!((hit.distance - expected).abs() < 1e-3 * expected, "{hit:?} vs {expected}");
+        let img = render(&scene, &cam, &FloorCheck(cam), &o);
+        for y in 33..S {
+            for x in 0..S {
+                assert_eq!(img.pixel(x, y), [255; 3], "pixel ({x}, {y})");
+            }
+        }
+        // Entirely behind the camera: nothing.
+        let behind = floor.map(|p| Vec3::new(p.x, p.y, p.z.abs() + 1.0));
+        let vis = visibility(&[item(&behind, &indices, 0)], &cam, &opts(SampleCount::X4));
+        assert!(vis.samples.iter().all(Option::is_none));
+    }
+
+    #[test]
+    fn huge_triangles_are_clipped_to_the_guard_band() {
+        let positions = [pix(-1e6, -1e6, 0.0), pix(1e6, -1e6, 0.0), pix(0.0, 1e6, 0.0)];
+        let indices = [[0u32, 1, 2]];
+        let vis = visibility(&[item(&positions, &indices, 0)], &camera(S), &opts(SampleCount::X4));
+        assert!((0..S).all(|y| (0..S).all(|x| vis.covered(x, y) == 4)));
+    }
+
+    #[test]
+    fn output_is_byte_identical_for_any_thread_count() {
+        let mesh = random_mesh(42, 400, 14.0);
+        let scene = [
+            Triangles {
+                positions: &mesh.positions,
+                normals: &mesh.normals,
+                uvs: &mesh.uvs,
+                indices: &mesh.indices[..200],
+                part: 3,
+            },
+            Triangles {
+                positions: &mesh.positions,
+                normals: &mesh.normals,
+                uvs: &mesh.uvs,
+                indices: &mesh.indices[200..],
+                part: 5,
+            },
+        ];
+        let cam = random_scene_camera(173, 131);
+        let png = |threads| {
+            let o = RenderOptions { samples_per_pixel: SampleCount::X8, threads, backface_culling: false };
+            render(&scene, &cam, &Busy, &o).encode_png()
+        };
+        let one = png(Some(1));
+        assert_eq!(one, png(Some(2)));
+        assert_eq!(one, png(Some(3)));
+        assert_eq!(one, png(None));
+        let vis = |threads| visibility(&scene, &cam, &RenderOptions { threads, ..RenderOptions::default() });
+        assert_eq!(vis(Some(1)), vis(Some(2)));
+        assert!(vis(None).samples.iter().flatten().count() > 10_000, "the scene covers the image");
+    }
+
+    #[test]
+    fn golden_image_hash() {
+        let mesh = random_mesh(2024, 60, 12.0);
+        let scene = [Triangles {
+            positions: &mesh.positions,
+            normals: &mesh.normals,
+            uvs: &mesh.uvs,
+            indices: &mesh.indices,
+            part: 1,
+        }];
+        let cam = random_scene_camera(64, 48);
+        let o = RenderOptions { samples_per_pixel: SampleCount::X16, threads: None, backface_culling: false };
+        let png = render(&scene, &cam, &Busy, &o).encode_png();
+        let hex: String = Sha256::digest(&png).iter().map(|b| format!("{b:02x}")).collect();
+        // Changes only when the rasteriser's output changes on purpose: then update it here.
+        assert_eq!(hex, "6d5da824e58765408a6b6ff62e8101fd0b813fe9a8dd0c4d287215dc2d4cb1cc");
+    }
+
+    #[test]
+    fn anti_aliasing_blends_along_edges() {
+        let positions = [pix(4.0, 4.0, 0.0), pix(60.0, 20.0, 0.0), pix(10.0, 60.0, 0.0)];
+        let indices = [[0u32, 1, 2]];
+        let scene = [item(&positions, &indices, 0)];
+        let count_grey = |samples| {
+            let img = render(&scene, &camera(S), &PartShader, &opts(samples));
+            img.data.chunks(3).filter(|p| p[0] > 0 && p[0] < 255).count()
+        };
+        assert_eq!(count_grey(SampleCount::X1), 0);
+        for samples in [SampleCount::X4, SampleCount::X8, SampleCount::X16] {
+            assert!(count_grey(samples) > 60, "{samples:?}: {}", count_grey(samples));
+        }
+        // 16 samples give finer steps than 4.
+        let levels = |samples| {
+            let img = render(&scene, &camera(S), &PartShader, &opts(samples));
+            let mut v: Vec<u8> = img.data.iter().copied().collect();
+            v.sort();
+            v.dedup();
+            v.len()
+        };
+        assert!(levels(SampleCount::X16) > levels(SampleCount::X4));
+    }
+}
