@@ -26,7 +26,7 @@ use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use super::camera::Camera;
-use super::image::{RgbImage, linear_to_srgb8};
+use super::image::{RgbImage, Srgb8};
 
 /// Fractional bits of the fixed-point screen coordinates (1/256 pixel).
 pub const SUBPIXEL_BITS: u32 = 8;
@@ -699,43 +699,62 @@ fn resolve_tile(
     let mut group_count = [0u32; MAX_SAMPLES];
     let mut group_sx = [0i64; MAX_SAMPLES];
     let mut group_sy = [0i64; MAX_SAMPLES];
+    let full_sx: i64 = pattern.iter().map(|p| p.0).sum();
+    let full_sy: i64 = pattern.iter().map(|p| p.1).sum();
+    let full_count = n as f64 * SUB as f64;
+    let srgb = Srgb8::new();
     for row in 0..h {
         for col in 0..w {
             let (px, py) = ((x0 + col) as u32, (y0 + row) as u32);
             let base = (row * TILE + col) * n;
             let ids = &buffers.id[base..base + n];
-            let mut groups = 0;
-            for (s, &id) in ids.iter().enumerate() {
-                let g = match group_id[..groups].iter().position(|&g| g == id) {
-                    Some(g) => g,
-                    None => {
-                        group_id[groups] = id;
-                        group_count[groups] = 0;
-                        group_sx[groups] = 0;
-                        group_sy[groups] = 0;
-                        groups += 1;
-                        groups - 1
-                    }
-                };
-                group_count[g] += 1;
-                group_sx[g] += pattern[s].0;
-                group_sy[g] += pattern[s].1;
-            }
-            let mut colour = Vec3::ZERO;
-            for g in 0..groups {
-                let weight = group_count[g] as f32 * inv_n;
-                let c = if group_id[g] == NO_TRIANGLE {
+            let first = ids[0];
+            let colour = if ids.iter().all(|&id| id == first) {
+                // One surface (or none) over the whole pixel: the common case. Same arithmetic
+                // as the general path below with a single group of `n` samples.
+                let c = if first == NO_TRIANGLE {
                     shader.background(px, py)
                 } else {
-                    let count = f64::from(group_count[g]) * SUB as f64;
-                    let x = f64::from(px) + group_sx[g] as f64 / count;
-                    let y = f64::from(py) + group_sy[g] as f64 / count;
-                    let fragment = fragment(&setup.shade[group_id[g] as usize], scene, camera, x, y, (px, py));
-                    shader.shade(&fragment)
+                    let x = f64::from(px) + full_sx as f64 / full_count;
+                    let y = f64::from(py) + full_sy as f64 / full_count;
+                    shader.shade(&fragment(&setup.shade[first as usize], scene, camera, x, y, (px, py)))
                 };
-                colour += c * weight;
-            }
-            out.extend_from_slice(&[linear_to_srgb8(colour.x), linear_to_srgb8(colour.y), linear_to_srgb8(colour.z)]);
+                Vec3::ZERO + c * (n as f32 * inv_n)
+            } else {
+                let mut groups = 0;
+                for (s, &id) in ids.iter().enumerate() {
+                    let g = match group_id[..groups].iter().position(|&g| g == id) {
+                        Some(g) => g,
+                        None => {
+                            group_id[groups] = id;
+                            group_count[groups] = 0;
+                            group_sx[groups] = 0;
+                            group_sy[groups] = 0;
+                            groups += 1;
+                            groups - 1
+                        }
+                    };
+                    group_count[g] += 1;
+                    group_sx[g] += pattern[s].0;
+                    group_sy[g] += pattern[s].1;
+                }
+                let mut colour = Vec3::ZERO;
+                for g in 0..groups {
+                    let weight = group_count[g] as f32 * inv_n;
+                    let c = if group_id[g] == NO_TRIANGLE {
+                        shader.background(px, py)
+                    } else {
+                        let count = f64::from(group_count[g]) * SUB as f64;
+                        let x = f64::from(px) + group_sx[g] as f64 / count;
+                        let y = f64::from(py) + group_sy[g] as f64 / count;
+                        let fragment = fragment(&setup.shade[group_id[g] as usize], scene, camera, x, y, (px, py));
+                        shader.shade(&fragment)
+                    };
+                    colour += c * weight;
+                }
+                colour
+            };
+            out.extend_from_slice(&[srgb.encode(colour.x), srgb.encode(colour.y), srgb.encode(colour.z)]);
         }
     }
     out
