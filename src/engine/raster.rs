@@ -1158,6 +1158,48 @@ mod tests {
         assert_eq!(hex, "6d5da824e58765408a6b6ff62e8101fd0b813fe9a8dd0c4d287215dc2d4cb1cc");
     }
 
+    /// White where the fragment's fields agree with each other, red otherwise.
+    struct FieldCheck<'a>(&'a [Vec3], &'a [Vec2], &'a [[u32; 3]]);
+    impl Shader for FieldCheck<'_> {
+        fn shade(&self, f: &Fragment) -> Vec3 {
+            let b = f.barycentric;
+            let v = self.2[f.triangle as usize];
+            let at = |i: usize| self.0[v[i] as usize];
+            let uv = |i: usize| self.1[v[i] as usize];
+            let ok = v == f.vertex
+                && f.part == 9
+                && b.min_element() >= 0.0
+                && (b.element_sum() - 1.0).abs() < 1e-5
+                && (at(0) * b.x + at(1) * b.y + at(2) * b.z - f.position).length() < 1e-3
+                && (uv(0) * b.x + uv(1) * b.y + uv(2) * b.z - f.uv).length() < 1e-5
+                && (f.normal.length() - 1.0).abs() < 1e-5
+                && (f.view_dir - (Vec3::new(0.0, 0.0, 32.0) - f.position).normalize()).length() < 1e-5;
+            if ok { Vec3::ONE } else { Vec3::X }
+        }
+        fn background(&self, _: u32, _: u32) -> Vec3 {
+            Vec3::ZERO
+        }
+    }
+
+    #[test]
+    fn fragments_carry_consistent_attributes() {
+        let positions = [pix(4.0, 4.0, 0.0), pix(60.0, 8.0, -20.0), pix(12.0, 60.0, 10.0), pix(58.0, 58.0, 5.0)];
+        let uvs = [Vec2::ZERO, Vec2::X, Vec2::Y, Vec2::ONE];
+        let indices = [[0u32, 2, 1], [1, 2, 3]];
+        let scene = [Triangles { positions: &positions, normals: &[], uvs: &uvs, indices: &indices, part: 9 }];
+        let img = render(&scene, &camera(S), &FieldCheck(&positions, &uvs, &indices), &opts(SampleCount::X16));
+        assert!(img.data.chunks(3).all(|p| p[1] == p[0]), "some fragment failed its checks");
+        assert!(img.data.chunks(3).filter(|p| p[0] == 255).count() > 1500);
+    }
+
+    #[test]
+    fn non_finite_vertices_do_not_panic() {
+        let positions = [pix(4.0, 4.0, 0.0), Vec3::new(f32::NAN, 0.0, 0.0), pix(12.0, 60.0, f32::INFINITY)];
+        let indices = [[0u32, 1, 2], [0, 2, 1]];
+        let scene = [item(&positions, &indices, 0)];
+        render(&scene, &camera(S), &PartShader, &RenderOptions::default());
+    }
+
     #[test]
     fn anti_aliasing_blends_along_edges() {
         let positions = [pix(4.0, 4.0, 0.0), pix(60.0, 20.0, 0.0), pix(10.0, 60.0, 0.0)];
