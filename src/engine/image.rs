@@ -132,8 +132,8 @@ impl Srgb8 {
     /// Same as [`linear_to_srgb8`].
     #[inline]
     pub fn encode(self, linear: f32) -> u8 {
-        if !(linear > 0.0) {
-            return 0; // also NaN
+        if linear.is_nan() || linear <= 0.0 {
+            return 0;
         }
         if linear >= 1.0 {
             return 255;

@@ -635,10 +635,7 @@ fn rasterize_tile_n<const N: usize>(setup: &Setup, tile: usize, pattern: &[(i64,
         for py in y0..=y1 {
             let fy = i64::from(py) * SUB;
             let fx = i64::from(x0) * SUB;
-            let mut e = [0i64; 3];
-            for k in 0..3 {
-                e[k] = t.a[k] * fx + t.b[k] * fy + t.c[k];
-            }
+            let mut e: [i64; 3] = std::array::from_fn(|k| t.a[k] * fx + t.b[k] * fy + t.c[k]);
             let z_row = t.zy * (py as f32 - t.oy);
             let row_base = (py as usize - ty0) * TILE;
             for px in x0..=x1 {
@@ -1216,7 +1213,7 @@ mod tests {
         // 16 samples give finer steps than 4.
         let levels = |samples| {
             let img = render(&scene, &camera(S), &PartShader, &opts(samples));
-            let mut v: Vec<u8> = img.data.iter().copied().collect();
+            let mut v = img.data.to_vec();
             v.sort();
             v.dedup();
             v.len()
