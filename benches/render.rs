@@ -1,7 +1,9 @@
 //! Rasteriser throughput: a UV sphere of ~8,000 triangles (the size of the head mesh) at the
 //! stimulus size 485×480, Lambert-shaded, on one thread and on all threads.
 //!
-//! Run with `cargo bench --bench render`.
+//! Run with `cargo bench --bench render`. On a busy machine wall-clock figures are noisy; with
+//! `RENDER_CPU_TIME=1` the bench instead prints the CPU time per one-thread frame, read from
+//! `/proc/thread-self/schedstat` (Linux), which other processes do not inflate as much.
 
 use divan::Bencher;
 use facslab::engine::camera::Camera;
@@ -9,7 +11,48 @@ use facslab::engine::raster::{Fragment, RenderOptions, SampleCount, Shader, Tria
 use glam::{Vec2, Vec3};
 
 fn main() {
-    divan::main();
+    if std::env::var_os("RENDER_CPU_TIME").is_some() {
+        cpu_time_report();
+    } else {
+        divan::main();
+    }
+}
+
+/// Nanoseconds this thread has spent on a CPU.
+fn thread_cpu_ns() -> u64 {
+    let stat = std::fs::read_to_string("/proc/thread-self/schedstat").expect("Linux schedstat");
+    stat.split_whitespace().next().and_then(|t| t.parse().ok()).expect("schedstat run time")
+}
+
+fn cpu_time_report() {
+    let mesh = sphere(64, 63);
+    let scene = [Triangles {
+        positions: &mesh.positions,
+        normals: &mesh.normals,
+        uvs: &mesh.uvs,
+        indices: &mesh.indices,
+        part: 0,
+    }];
+    let camera = camera();
+    println!("{} triangles, {}x{}", mesh.indices.len(), camera.width, camera.height);
+    for spp in [4, 8, 16] {
+        let options = RenderOptions { samples_per_pixel: samples(spp), threads: Some(1), backface_culling: true };
+        let frames = 60;
+        let mut best = u64::MAX;
+        let mut total = 0;
+        for _ in 0..frames {
+            let start = thread_cpu_ns();
+            divan::black_box(render(divan::black_box(&scene), &camera, &Lambert, &options));
+            let spent = thread_cpu_ns() - start;
+            best = best.min(spent);
+            total += spent;
+        }
+        println!(
+            "{spp:>2} spp, one thread: CPU time per frame mean {:.2} ms, best {:.2} ms",
+            total as f64 / frames as f64 / 1e6,
+            best as f64 / 1e6
+        );
+    }
 }
 
 struct Sphere {

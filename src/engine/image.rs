@@ -132,19 +132,11 @@ impl Srgb8 {
     /// Same as [`linear_to_srgb8`].
     #[inline]
     pub fn encode(self, linear: f32) -> u8 {
-        if linear.is_nan() || linear <= 0.0 {
-            return 0;
-        }
-        if linear >= 1.0 {
-            return 255;
-        }
-        // Exact: multiplying by a power of two does not round, so the bucket starts at or below.
-        let bucket = (linear * SRGB_BUCKETS as f32) as usize;
-        let mut out = self.0.bucket_start[bucket.min(SRGB_BUCKETS - 1)] as usize;
-        while out < 255 && linear >= self.0.thresholds[out] {
-            out += 1;
-        }
-        out as u8
+        // NaN and negatives → 0; the multiplication by a power of two is exact, so the bucket
+        // starts at or below `x`, and a bucket never spans more than one step.
+        let x = if linear > 0.0 { linear.min(1.0) } else { 0.0 };
+        let start = self.0.bucket_start[(x * SRGB_BUCKETS as f32) as usize];
+        start + u8::from(x >= self.0.thresholds[start as usize])
     }
 }
 
@@ -157,19 +149,29 @@ impl Default for Srgb8 {
 const SRGB_BUCKETS: usize = 4096;
 
 struct Srgb8Tables {
-    thresholds: [f32; 255],
-    /// Output for the value `i / SRGB_BUCKETS`.
-    bucket_start: [u8; SRGB_BUCKETS],
+    /// [`srgb8_thresholds`] then +∞.
+    thresholds: [f32; 256],
+    /// Output for the value `i / SRGB_BUCKETS`, i = 0..=SRGB_BUCKETS.
+    bucket_start: [u8; SRGB_BUCKETS + 1],
 }
 
 fn srgb8_tables() -> &'static Srgb8Tables {
     static TABLES: OnceLock<Srgb8Tables> = OnceLock::new();
     TABLES.get_or_init(|| {
-        let thresholds = srgb8_thresholds();
-        let bucket_start = std::array::from_fn(|i| {
+        let steps = srgb8_thresholds();
+        let mut thresholds = [f32::INFINITY; 256];
+        thresholds[..255].copy_from_slice(&steps);
+        let bucket_start: [u8; SRGB_BUCKETS + 1] = std::array::from_fn(|i| {
             let x = i as f32 / SRGB_BUCKETS as f32;
-            thresholds.partition_point(|&t| t <= x) as u8
+            steps.partition_point(|&t| t <= x) as u8
         });
+        // `encode` takes at most one step inside a bucket: the steepest slope of the curve,
+        // 12.92 · 255 / 4096 ≈ 0.8 output levels per bucket, guarantees it.
+        for i in 0..SRGB_BUCKETS {
+            let next_step = thresholds.get(bucket_start[i] as usize + 1).copied().unwrap_or(f32::INFINITY);
+            let bucket_end = (i + 1) as f32 / SRGB_BUCKETS as f32;
+            assert!(next_step >= bucket_end, "sRGB bucket {i} spans more than one output step");
+        }
         Srgb8Tables { thresholds, bucket_start }
     })
 }
@@ -203,6 +205,17 @@ mod tests {
             let x = i as f32 / 200_000.0;
             let expected = (f64::from(linear_to_srgb(x)) * 255.0 + 0.5).floor() as u8;
             assert_eq!(linear_to_srgb8(x), expected, "x = {x}");
+        }
+        // Also across the whole f32 range below 1, by bit pattern (denser near 0).
+        for bits in (0..1.0f32.to_bits()).step_by(997) {
+            let x = f32::from_bits(bits);
+            let expected = (f64::from(linear_to_srgb(x)) * 255.0 + 0.5).floor() as u8;
+            assert_eq!(linear_to_srgb8(x), expected, "x = {x}");
+        }
+        for k in 0..255 {
+            let t = srgb8_thresholds()[k];
+            assert_eq!(linear_to_srgb8(t), k as u8 + 1);
+            assert_eq!(linear_to_srgb8(f32::from_bits(t.to_bits() - 1)), k as u8);
         }
         assert_eq!(linear_to_srgb8(-1.0), 0);
         assert_eq!(linear_to_srgb8(f32::NAN), 0);
