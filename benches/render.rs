@@ -3,7 +3,8 @@
 //!
 //! Run with `cargo bench --bench render`. On a busy machine wall-clock figures are noisy; with
 //! `RENDER_CPU_TIME=1` the bench instead prints the CPU time per one-thread frame, read from
-//! `/proc/thread-self/schedstat` (Linux), which other processes do not inflate as much.
+//! `/proc/thread-self/schedstat` (Linux), which other processes do not inflate as much
+//! (`RENDER_PNG=out.png` also writes the benchmarked frame).
 
 use divan::Bencher;
 use facslab::engine::camera::Camera;
@@ -35,6 +36,10 @@ fn cpu_time_report() {
     }];
     let camera = camera();
     println!("{} triangles, {}x{}", mesh.indices.len(), camera.width, camera.height);
+    if let Some(path) = std::env::var_os("RENDER_PNG") {
+        render(&scene, &camera, &Lambert, &RenderOptions::default()).write_png(&path).expect("write PNG");
+        println!("wrote {}", path.to_string_lossy());
+    }
     for spp in [4, 8, 16] {
         let options = RenderOptions { samples_per_pixel: samples(spp), threads: Some(1), backface_culling: true };
         let frames = 60;

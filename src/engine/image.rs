@@ -167,8 +167,8 @@ fn srgb8_tables() -> &'static Srgb8Tables {
         });
         // `encode` takes at most one step inside a bucket: the steepest slope of the curve,
         // 12.92 · 255 / 4096 ≈ 0.8 output levels per bucket, guarantees it.
-        for i in 0..SRGB_BUCKETS {
-            let next_step = thresholds.get(bucket_start[i] as usize + 1).copied().unwrap_or(f32::INFINITY);
+        for (i, &start) in bucket_start[..SRGB_BUCKETS].iter().enumerate() {
+            let next_step = thresholds.get(start as usize + 1).copied().unwrap_or(f32::INFINITY);
             let bucket_end = (i + 1) as f32 / SRGB_BUCKETS as f32;
             assert!(next_step >= bucket_end, "sRGB bucket {i} spans more than one output step");
         }
