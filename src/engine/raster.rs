@@ -1038,6 +1038,22 @@ mod tests {
         assert_eq!(vis.coverage(10, 10, 0, 0), 4);
     }
 
+    #[test]
+    fn thin_layers_resolve_without_z_fighting() {
+        // A tilted surface and a copy 0.005 units nearer (1/6400 of the distance), drawn in
+        // both orders: the nearer copy must win at every sample.
+        let base = [pix(2.0, 2.0, -6.0), pix(62.0, 4.0, 5.0), pix(3.0, 62.0, 9.0)];
+        let lifted = base.map(|p| p + Vec3::new(0.0, 0.0, 0.005));
+        let tri = [[0u32, 1, 2]];
+        let o = opts(SampleCount::X16);
+        for (first, second, near_item) in [(&base, &lifted, 1), (&lifted, &base, 0)] {
+            let vis = visibility(&[item(first, &tri, 0), item(second, &tri, 0)], &camera(S), &o);
+            let hits: Vec<_> = vis.samples.iter().flatten().collect();
+            assert!(hits.len() > 20_000);
+            assert!(hits.iter().all(|h| h.item == near_item), "z-fighting with near item {near_item}");
+        }
+    }
+
     /// White where the fragment lies on the plane y = −1 and projects back onto the pixel's
     /// sample centroid (perspective-correct interpolation), red otherwise.
     struct FloorCheck(Camera);
