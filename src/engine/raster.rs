@@ -215,6 +215,9 @@ pub fn render(scene: &[Triangles], camera: &Camera, shader: &impl Shader, option
 }
 
 /// The visibility buffer `render` would resolve (same coverage, same depth tie-breaks).
+///
+/// Meant for tests and geometry checks (which surface covers a pixel, landmark occlusion):
+/// it materialises one `Option<Hit>` per sample, so it is slower than `render` itself.
 pub fn visibility(scene: &[Triangles], camera: &Camera, options: &RenderOptions) -> Visibility {
     let setup = Setup::new(scene, camera, options.backface_culling);
     let pattern = options.samples_per_pixel.fixed_offsets();
