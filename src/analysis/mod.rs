@@ -20,4 +20,9 @@
 //!   the reference values in `tests/fixtures/stats/` (scipy, statsmodels, pingouin,
 //!   scikit-learn, dtaidistance, tslearn, kmedoids).
 
+mod input;
+pub mod manifest;
+pub mod responses;
 pub mod stats;
+
+pub use input::InputError;
