@@ -21,6 +21,7 @@
 //!   scikit-learn, dtaidistance, tslearn, kmedoids).
 
 mod input;
+pub mod coding;
 pub mod manifest;
 pub mod responses;
 pub mod stats;
