@@ -23,6 +23,7 @@
 mod input;
 pub mod coding;
 pub mod manifest;
+pub mod rating;
 pub mod responses;
 pub mod stats;
 
