@@ -22,6 +22,7 @@
 
 mod input;
 pub mod coding;
+pub mod demographics;
 pub mod manifest;
 pub mod rating;
 pub mod responses;
