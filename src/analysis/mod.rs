@@ -21,10 +21,12 @@
 //!   scikit-learn, dtaidistance, tslearn, kmedoids).
 
 mod input;
+pub mod cli;
 pub mod coding;
 pub mod demographics;
 pub mod manifest;
 pub mod rating;
+pub mod simulate;
 pub mod responses;
 pub mod stats;
 
