@@ -91,15 +91,16 @@ fn f1_bars(name: &str, aus: &[u16], f1: &[f64]) -> Result<Vec<u8>, ReportError> 
             .margin(12)
             .x_label_area_size(40)
             .y_label_area_size(48)
-            .build_cartesian_2d(0f64..aus.len() as f64, 0f64..1.05f64)
+            .build_cartesian_2d(-0.5f64..aus.len() as f64 - 0.5, 0f64..1.05f64)
             .map_err(|e| e.to_string())?;
         chart
             .configure_mesh()
             .disable_x_mesh()
+            .max_light_lines(0)
             .x_labels(aus.len())
             .x_label_formatter(&|x| {
-                let i = x.floor() as usize;
-                if (x - x.floor() - 0.5).abs() < 1e-6 && i < aus.len() { aus[i].to_string() } else { String::new() }
+                let i = x.round();
+                if (x - i).abs() < 1e-6 && i >= 0.0 && (i as usize) < aus.len() { aus[i as usize].to_string() } else { String::new() }
             })
             .y_desc("F1")
             .x_desc("AU")
@@ -110,7 +111,7 @@ fn f1_bars(name: &str, aus: &[u16], f1: &[f64]) -> Result<Vec<u8>, ReportError> 
         chart
             .draw_series(f1.iter().enumerate().map(|(i, &v)| {
                 let colour = if v >= 0.8 { RGBColor(49, 130, 189) } else { RGBColor(230, 85, 13) };
-                Rectangle::new([(i as f64 + 0.12, 0.0), (i as f64 + 0.88, v)], colour.filled())
+                Rectangle::new([(i as f64 - 0.38, 0.0), (i as f64 + 0.38, v)], colour.filled())
             }))
             .map_err(|e| e.to_string())?;
         Ok(())
@@ -127,15 +128,16 @@ fn believability(name: &str, labels: &[String], series: &[(String, Vec<Option<(f
             .margin(12)
             .x_label_area_size(40)
             .y_label_area_size(48)
-            .build_cartesian_2d(0f64..labels.len() as f64, 0.5f64..5.5f64)
+            .build_cartesian_2d(-0.5f64..labels.len() as f64 - 0.5, 0.5f64..5.5f64)
             .map_err(|e| e.to_string())?;
         chart
             .configure_mesh()
             .disable_x_mesh()
+            .max_light_lines(0)
             .x_labels(labels.len())
             .x_label_formatter(&|x| {
-                let i = x.floor() as usize;
-                if (x - x.floor() - 0.5).abs() < 1e-6 && i < labels.len() { short(&labels[i]) } else { String::new() }
+                let i = x.round();
+                if (x - i).abs() < 1e-6 && i >= 0.0 && (i as usize) < labels.len() { short(&labels[i as usize]) } else { String::new() }
             })
             .y_desc("rating (1-5)")
             .label_style(font(11.0))
@@ -145,7 +147,7 @@ fn believability(name: &str, labels: &[String], series: &[(String, Vec<Option<(f
         let k = series.len().max(1) as f64;
         for (si, (cond, points)) in series.iter().enumerate() {
             let colour = palette[si % palette.len()];
-            let dx = 0.2 + 0.6 * (si as f64 + 0.5) / k;
+            let dx = -0.3 + 0.6 * (si as f64 + 0.5) / k;
             chart
                 .draw_series(points.iter().enumerate().filter_map(|(i, p)| {
                     p.map(|(m, sd)| ErrorBar::new_vertical(i as f64 + dx, m - sd, m, m + sd, colour.stroke_width(2), 8))

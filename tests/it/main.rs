@@ -1,4 +1,5 @@
 //! Integration tests: drive the real `facslab` binary on files in a temporary directory.
 
+mod analyze;
 mod cli;
 mod render;
