@@ -143,8 +143,9 @@ type ActivePatterns = Vec<(Pattern, f32, f32)>;
 /// Shades the head for one frame.
 pub struct FaceShader<'a> {
     maps: SkinMaps,
+    /// Fraction of the key light reaching each vertex (1 everywhere without a shadow map).
+    key_light: Vec<f32>,
     patterns: ActivePatterns,
-    shadow: Option<&'a ShadowMap>,
     model: &'a FaceModel,
     posed: &'a Posed,
     identity: &'a Identity,
@@ -163,12 +164,15 @@ impl<'a> FaceShader<'a> {
             })
             .collect();
         let maps = SkinMaps::new(model, identity);
-        FaceShader { maps, patterns, shadow: None, model, posed, identity, regions: regions(model), lights: lights(), height }
+        let key_light = vec![1.0; posed.positions.len()];
+        FaceShader { maps, key_light, patterns, model, posed, identity, regions: regions(model), lights: lights(), height }
     }
 
-    /// Casts the key light's shadows from `shadow`.
-    pub fn with_shadows(self, shadow: &'a ShadowMap) -> FaceShader<'a> {
-        FaceShader { shadow: Some(shadow), ..self }
+    /// Casts the key light's shadows from `shadow`, looked up once per vertex (offset along the
+    /// normal so that surfaces do not shadow themselves) and interpolated across triangles.
+    pub fn with_shadows(self, shadow: &ShadowMap) -> FaceShader<'a> {
+        let key_light = self.posed.positions.iter().zip(&self.posed.normals).map(|(&p, &n)| shadow.light(p + n * 0.02)).collect();
+        FaceShader { key_light, ..self }
     }
 
     fn interpolate(&self, values: &[f32], f: &Fragment) -> f32 {
@@ -197,8 +201,7 @@ impl<'a> FaceShader<'a> {
         let view = f.view_dir;
         let ambient = SKY.lerp(GROUND, (0.5 - 0.5 * normal.y).clamp(0.0, 1.0));
         let mut colour = albedo * ambient;
-        // Offsetting along the normal keeps surfaces from shadowing themselves (acne).
-        let key_reaches = self.shadow.map_or(1.0, |s| s.light(f.position + normal * 0.02));
+        let key_reaches = self.interpolate(&self.key_light, f);
         for (n, light) in self.lights.iter().enumerate() {
             let reach = if n == 0 { 0.15 + 0.85 * key_reaches } else { 1.0 };
             let n_dot_l = normal.dot(light.direction);
@@ -209,7 +212,8 @@ impl<'a> FaceShader<'a> {
                 ((n_dot_l + wrap * 0.8) / (1.0 + wrap * 0.8)).max(0.0),
             );
             colour += albedo * light.colour * wrapped * reach;
-            if n_dot_l > 0.0 {
+            // Only the key light is bright enough to give a visible highlight.
+            if n == 0 && n_dot_l > 0.0 {
                 let half = (light.direction + view).normalize();
                 let fresnel = 0.04 + 0.96 * (1.0 - view.dot(half).max(0.0)).powi(5);
                 let lobe = normal.dot(half).max(0.0).powf(shininess) * (shininess + 8.0) / 25.0;
@@ -239,8 +243,7 @@ impl<'a> FaceShader<'a> {
 
         // Albedo: skin with mottling, cheeks, lips, stubble, brows, hair, mouth interior.
         let maps = &self.maps;
-        let pores = 1.0 + 0.04 * (value_noise(rest * 160.0) - 0.5);
-        let mut albedo = identity.skin * self.interpolate(&maps.mottle, f) * pores;
+        let mut albedo = identity.skin * self.interpolate(&maps.mottle, f);
         let cheek = self.interpolate(&maps.cheek, f);
         albedo = albedo.lerp(albedo * Vec3::new(1.08, 0.9, 0.88), 0.5 * cheek);
         albedo = albedo.lerp(identity.lips, lips);
@@ -288,7 +291,7 @@ impl<'a> FaceShader<'a> {
         // The upper lid shades the top of the eyeball.
         let lid_shadow = 1.0 - 0.45 * smoothstep(0.1, 0.7, d.dot(eye.up));
         let colour = self.lit(f, d, albedo * lid_shadow, 0.1, 0.0, 1.0);
-        colour + self.cornea_highlight(d, f.view_dir) * self.shadow.map_or(1.0, |s| s.light(f.position))
+        colour + self.cornea_highlight(d, f.view_dir) * self.interpolate(&self.key_light, f)
     }
 
     fn cornea_highlight(&self, normal: Vec3, view: Vec3) -> Vec3 {
@@ -380,15 +383,18 @@ fn brow_mask(rest: Vec3) -> f32 {
 /// Scalp hair: above a hairline that runs high over the forehead and low at the nape.
 fn hair_mask(rest: Vec3, raise: f32) -> f32 {
     let x = rest.x.abs();
-    let line = if rest.z > 1.15 {
-        8.02 + 0.6 * (x - 0.35).max(0.0).powi(2) * 4.0
-    } else if rest.z > 0.85 {
-        7.60 + (rest.z - 0.85) / 0.30 * 0.42
-    } else if rest.z > 0.35 {
-        7.25 + (rest.z - 0.35) / 0.50 * 0.35
-    } else {
-        6.75 + rest.z.max(0.0) / 0.35 * 0.50
-    };
+    // Hairline height as a smooth function of depth: high over the forehead, down over the
+    // temples and ears, low at the nape.
+    let front = 8.02 + 2.4 * (x - 0.35).max(0.0).powi(2);
+    let profile = [(0.0, 6.75), (0.35, 7.25), (0.85, 7.6), (1.15, front)];
+    let z = rest.z.clamp(0.0, 1.15);
+    let line = profile
+        .windows(2)
+        .find(|w| z <= w[1].0)
+        .map_or(front, |w| {
+            let t = smoothstep(w[0].0, w[1].0, z);
+            w[0].1 + (w[1].1 - w[0].1) * t
+        });
     let edge = 0.025 + 0.02 * value_noise(rest * 90.0);
     smoothstep(line + raise - edge, line + raise + edge, rest.y)
 }
