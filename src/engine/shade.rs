@@ -138,7 +138,7 @@ impl SkinMaps {
 }
 
 /// The appearance channels active in this frame, with their (left, right) weights.
-type ActivePatterns = Vec<(Pattern, f32, f32)>;
+type ActivePatterns = Vec<(Relief, f32, f32)>;
 
 /// Shades the head for one frame.
 pub struct FaceShader<'a> {
@@ -194,7 +194,7 @@ impl<'a> FaceShader<'a> {
     fn relief(&self, p: Vec3) -> f32 {
         let mirrored = Vec2::new(p.x.abs(), p.y);
         let l = Self::left_weight(p.x);
-        self.patterns.iter().map(|(pattern, left, right)| (left * l + right * (1.0 - l)) * pattern(mirrored)).sum()
+        self.patterns.iter().map(|(relief, left, right)| (left * l + right * (1.0 - l)) * relief.at(mirrored)).sum()
     }
 
     fn lit(&self, f: &Fragment, normal: Vec3, albedo: Vec3, wrap: f32, specular: f32, shininess: f32) -> Vec3 {
@@ -420,18 +420,33 @@ fn strands(rest: Vec3) -> f32 {
 
 type Pattern = fn(Vec2) -> f32;
 
-const PATTERNS: [(&str, Pattern); 11] = [
-    ("forehead_inner", forehead_inner),
-    ("forehead_outer", forehead_outer),
-    ("glabella_vertical", glabella_vertical),
-    ("glabella_horizontal", glabella_horizontal),
-    ("crows_feet", crows_feet),
-    ("lower_lid_bulge", lower_lid_bulge),
-    ("nose_wrinkles", nose_wrinkles),
-    ("nasolabial", nasolabial),
-    ("dimple", dimple),
-    ("chin_boss", chin_boss),
-    ("lip_press_bulge", lip_press_bulge),
+/// A pattern with the box (mirrored rest space: x min, x max, y min, y max) outside which it
+/// is zero to within rounding, so most fragments skip it.
+#[derive(Clone, Copy)]
+struct Relief {
+    pattern: Pattern,
+    bounds: [f32; 4],
+}
+
+impl Relief {
+    fn at(&self, p: Vec2) -> f32 {
+        let [x0, x1, y0, y1] = self.bounds;
+        if p.x < x0 || p.x > x1 || p.y < y0 || p.y > y1 { 0.0 } else { (self.pattern)(p) }
+    }
+}
+
+const PATTERNS: [(&str, Relief); 11] = [
+    ("forehead_inner", Relief { pattern: forehead_inner, bounds: [0.0, 0.32, 7.6, 8.05] }),
+    ("forehead_outer", Relief { pattern: forehead_outer, bounds: [0.08, 0.6, 7.55, 8.0] }),
+    ("glabella_vertical", Relief { pattern: glabella_vertical, bounds: [0.0, 0.1, 7.35, 7.62] }),
+    ("glabella_horizontal", Relief { pattern: glabella_horizontal, bounds: [0.0, 0.12, 7.32, 7.44] }),
+    ("crows_feet", Relief { pattern: crows_feet, bounds: [0.45, 0.64, 7.18, 7.42] }),
+    ("lower_lid_bulge", Relief { pattern: lower_lid_bulge, bounds: [0.14, 0.47, 7.08, 7.22] }),
+    ("nose_wrinkles", Relief { pattern: nose_wrinkles, bounds: [0.0, 0.17, 7.14, 7.36] }),
+    ("nasolabial", Relief { pattern: nasolabial, bounds: [0.09, 0.35, 6.5, 7.0] }),
+    ("dimple", Relief { pattern: dimple, bounds: [0.22, 0.34, 6.56, 6.68] }),
+    ("chin_boss", Relief { pattern: chin_boss, bounds: [0.0, 0.2, 6.2, 6.52] }),
+    ("lip_press_bulge", Relief { pattern: lip_press_bulge, bounds: [0.0, 0.24, 6.41, 6.8] }),
 ];
 
 /// A groove of unit depth along a line at distance `d`, with half-width `w`.
@@ -473,12 +488,15 @@ fn glabella_horizontal(p: Vec2) -> f32 {
 
 fn crows_feet(p: Vec2) -> f32 {
     let origin = Vec2::new(0.485, 7.29);
-    [-0.45f32, -0.15, 0.15, 0.45]
-        .iter()
-        .map(|angle| {
-            let dir = Vec2::new(angle.cos(), angle.sin());
-            segment_distance(p, origin + dir * 0.02, origin + dir * 0.11)
-        })
+    // Unit directions at -0.45, -0.15, 0.15 and 0.45 rad from the horizontal.
+    const FAN: [Vec2; 4] = [
+        Vec2::new(0.900_447, -0.434_966),
+        Vec2::new(0.988_771, -0.149_438),
+        Vec2::new(0.988_771, 0.149_438),
+        Vec2::new(0.900_447, 0.434_966),
+    ];
+    FAN.iter()
+        .map(|dir| segment_distance(p, origin + *dir * 0.02, origin + *dir * 0.11))
         .map(|d| 0.8 * groove(d, 0.009))
         .sum()
 }
