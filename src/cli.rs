@@ -355,15 +355,20 @@ fn render_timeline_video(
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads.unwrap_or(0)).build()?;
     let mut first = None;
     let total = timeline.frame_count();
+    let tty = std::io::IsTerminal::is_terminal(&std::io::stderr());
     let bytes = pool.install(|| {
         stimuli::render_video(timeline, settings, frames, true, &mut |frame, image| {
-            eprint!("\rrendering frame {}/{total}", frame + 1);
+            if tty {
+                eprint!("\rrendering frame {}/{total}", frame + 1);
+            }
             if frame == 0 {
                 first = Some(image.clone());
             }
         })
     })?;
-    eprintln!();
+    if tty {
+        eprintln!();
+    }
     stimuli::build::write_atomic(output, &bytes)?;
     if let (Some(path), Some(image)) = (poster, first) {
         check_png_path(path)?;
