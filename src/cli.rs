@@ -90,6 +90,9 @@ enum Command {
         /// Also write the first frame as a poster PNG.
         #[arg(long)]
         poster: Option<PathBuf>,
+        /// Video codec: h264 (default) or av1 (the fallback; needs the `av1` cargo feature).
+        #[arg(long, value_enum, default_value = "h264")]
+        codec: CodecArg,
     },
 
     /// Render a labelled contact sheet for a visual audit.
@@ -137,6 +140,12 @@ enum StimuliCommand {
         /// The set specification (TOML).
         spec: PathBuf,
     },
+}
+
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
+enum CodecArg {
+    H264,
+    Av1,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -207,6 +216,7 @@ fn dispatch(command: Command) -> anyhow::Result<()> {
             export_timeline,
             frames,
             poster,
+            codec,
         } => {
             let is_video = video || timeline.is_some();
             if !is_video {
@@ -215,6 +225,9 @@ fn dispatch(command: Command) -> anyhow::Result<()> {
                 }
                 let expression = Catalog::built_in().parse(expression.as_deref().unwrap_or_default())?;
                 let identity = IdentityTable::built_in().get(identity.as_deref().unwrap_or("wm1"))?;
+                if output.extension().is_some_and(|e| e.eq_ignore_ascii_case("mp4")) {
+                    bail!("output {} is a video: add --video (or --timeline FILE)", output.display());
+                }
                 check_png_path(&output)?;
                 let (width, height) = size.unwrap_or(engine::DEFAULT_SIZE);
                 let settings = FrameSettings { width, height, threads };
@@ -238,7 +251,8 @@ fn dispatch(command: Command) -> anyhow::Result<()> {
                     Timeline::clip(&expression, timing, fps, &identity, size.unwrap_or(engine::DEFAULT_SIZE))
                 }
             };
-            render_timeline_video(&timeline, &output, threads, export_timeline.as_deref(), frames.as_deref(), poster.as_deref())
+            let av1 = codec == CodecArg::Av1;
+            render_timeline_video(&timeline, &output, threads, export_timeline.as_deref(), frames.as_deref(), poster.as_deref(), av1)
         }
         Command::Stimuli(StimuliCommand::Check { spec }) => {
             let set = SetSpec::load(&spec)?;
@@ -342,7 +356,11 @@ fn render_timeline_video(
     export: Option<&Path>,
     frames: Option<&Path>,
     poster: Option<&Path>,
+    av1: bool,
 ) -> anyhow::Result<()> {
+    if av1 && !cfg!(feature = "av1") {
+        bail!("this facslab was built without AV1 support (cargo build --features av1)");
+    }
     if output.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() != Some("mp4") {
         bail!("output {} must end in .mp4 for a video", output.display());
     }
@@ -354,6 +372,7 @@ fn render_timeline_video(
     let settings = FrameSettings { width: timeline.size[0], height: timeline.size[1], threads: Some(1) };
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads.unwrap_or(0)).build()?;
     let mut first = None;
+    let mut all_frames = Vec::new();
     let total = timeline.frame_count();
     let tty = std::io::IsTerminal::is_terminal(&std::io::stderr());
     let bytes = pool.install(|| {
@@ -364,8 +383,14 @@ fn render_timeline_video(
             if frame == 0 {
                 first = Some(image.clone());
             }
+            if av1 {
+                all_frames.push(image.clone());
+            }
         })
     })?;
+    #[cfg(feature = "av1")]
+    let bytes = if av1 { engine::video::encode_av1_mp4(&all_frames, timeline.fps)? } else { bytes };
+    drop(all_frames);
     if tty {
         eprintln!();
     }

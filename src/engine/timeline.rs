@@ -8,7 +8,8 @@
 //! - frame `f` is shown at `t = f / fps`; a clip of `duration_s` has `round(duration_s × fps)`
 //!   frames (a 3-s clip at 30 fps has 90, at t = 0 … 2.9667 s);
 //! - a track acts on the closed interval `[start_s, end_s]` and contributes nothing outside it;
-//!   within, its intensity goes from `start_intensity` to `end_intensity` along its [`Ramp`];
+//!   within, its intensity goes from `start_intensity` to `end_intensity` along its [`Ramp`]
+//!   (values strictly between the ends rounded to [`RAMP_STEP`]);
 //! - tracks of the same AU on overlapping sides may touch but not overlap in time; where two
 //!   touch, the later one decides the value;
 //! - an AU at intensity 0 is absent from the frame's expression; the others keep the order in
@@ -78,15 +79,26 @@ impl Track {
         let span = self.end_s - self.start_s;
         let s = if span > 0.0 { (t - self.start_s) / span } else { 1.0 };
         let eased = self.ramp.shape(s);
-        let value = if eased >= 1.0 {
-            self.end_intensity
+        let (a, b) = (self.start_intensity, self.end_intensity);
+        let value = if eased >= 1.0 || a == b {
+            b
         } else if eased <= 0.0 {
-            self.start_intensity
+            a
         } else {
-            self.start_intensity + (self.end_intensity - self.start_intensity) * eased
+            quantize(a + (b - a) * eased)
         };
         Some(value.clamp(0.0, 1.0))
     }
+}
+
+/// Intensities strictly inside a ramp are rounded to this step (far below anything visible).
+/// The rounding makes a falling ramp pass through exactly the values of the mirrored rising
+/// one (`peak·k/30` and `peak·(1 − (30−k)/30)` differ in the last bits otherwise), so a renderer
+/// can reuse those frames; ramp ends and held values stay exact.
+pub const RAMP_STEP: f64 = 1e-6;
+
+fn quantize(value: f64) -> f64 {
+    (value / RAMP_STEP).round() * RAMP_STEP
 }
 
 /// Onset, apex and offset durations of a HapFACS clip, in seconds, and its ramp.
@@ -357,7 +369,7 @@ mod tests {
             assert_eq!(value(f), [0.55, 1.0], "frame {f} is in the apex");
         }
         assert!((value(75)[1] - 0.5).abs() < 1e-12);
-        assert!((value(89)[1] - 1.0 / 30.0).abs() < 1e-12, "the last frame is 1/30 s before the end");
+        assert!((value(89)[1] - 1.0 / 30.0).abs() <= RAMP_STEP, "the last frame is 1/30 s before the end");
         assert_eq!(t.frame_expression(0, catalog()).unwrap(), Expression::neutral());
         assert_eq!(t.frame_expression(45, catalog()).unwrap().to_string(), "12@0.55+R14@1");
     }
@@ -369,6 +381,17 @@ mod tests {
         let t = Timeline::clip(&peak, ClipTiming::default(), 30, "wm1", (64, 64));
         let apex = (ClipTiming::default().apex_mid_s() * 30.0).round() as usize;
         assert_eq!(t.frame_expression(apex, catalog()).unwrap(), peak);
+    }
+
+    #[test]
+    fn falling_ramps_mirror_rising_ones_exactly() {
+        for ramp in [Ramp::Linear, Ramp::Smoothstep, Ramp::Cosine] {
+            let e = catalog().parse("12C+4@0.37").unwrap();
+            let t = Timeline::clip(&e, ClipTiming { ramp, ..ClipTiming::default() }, 30, "wm1", (64, 64));
+            for k in 1..30 {
+                assert_eq!(t.frame_expression(k, catalog()).unwrap(), t.frame_expression(90 - k, catalog()).unwrap(), "{ramp:?} frame {k}");
+            }
+        }
     }
 
     #[test]

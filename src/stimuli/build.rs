@@ -317,7 +317,7 @@ pub enum VideoBuildError {
 }
 
 /// Renders every frame of `timeline` (on the calling thread, or in parallel over frames with
-/// `parallel`; frames with the same expression as the one before are reused), encodes the MP4, and optionally writes the PNG frames into
+/// `parallel`; each distinct expression is rendered once), encodes the MP4, and optionally writes the PNG frames into
 /// `frames_dir` (through a temporary directory renamed into place). `on_frame` sees each frame.
 pub fn render_video(
     timeline: &Timeline,
@@ -338,33 +338,48 @@ pub fn render_video(
     let mut encoder = Mp4Encoder::new(settings.width, settings.height, timeline.fps)?;
     let expressions: Vec<crate::facs::Expression> =
         (0..timeline.frame_count()).map(|f| timeline.frame_expression(f, catalog)).collect::<Result<_, _>>()?;
-    // A frame is rendered only when its expression differs from the frame before (the apex and
-    // any still stretch are rendered once). In parallel mode, chunks of frames render at once.
+    // Each distinct expression is rendered once: the apex is held, and a falling ramp passes
+    // through the rising ramp's values (see `timeline::RAMP_STEP`). Rendered frames are kept
+    // for reuse up to a memory budget. In parallel mode, chunks of frames render at once.
+    const CACHE_BYTES: usize = 96 << 20;
+    let mut cache: std::collections::HashMap<String, std::sync::Arc<RgbImage>> = std::collections::HashMap::new();
+    let mut cached_bytes = 0usize;
     let chunk = if parallel { 4 * rayon::current_num_threads() } else { 1 };
-    let mut previous: Option<RgbImage> = None;
     let frame_settings = FrameSettings { threads: if parallel { Some(1) } else { settings.threads }, ..settings };
+    let keys: Vec<String> = expressions.iter().map(|e| e.to_string()).collect();
     for start in (0..expressions.len()).step_by(chunk) {
         let end = (start + chunk).min(expressions.len());
-        let fresh: Vec<usize> = (start..end).filter(|&f| f == 0 || expressions[f] != expressions[f - 1]).collect();
+        let mut fresh: Vec<usize> = Vec::new();
+        for f in start..end {
+            if !cache.contains_key(&keys[f]) && !fresh.iter().any(|&g| keys[g] == keys[f]) {
+                fresh.push(f);
+            }
+        }
         let render = |&f: &usize| engine::render_still(&expressions[f], identity, frame_settings).map(|image| (f, image));
         let rendered: Vec<(usize, RgbImage)> = if parallel {
             fresh.par_iter().map(render).collect::<Result<_, _>>()?
         } else {
             fresh.iter().map(render).collect::<Result<_, _>>()?
         };
-        let mut rendered = rendered.into_iter().peekable();
+        let mut local: std::collections::HashMap<&str, std::sync::Arc<RgbImage>> = std::collections::HashMap::new();
+        for (f, image) in rendered {
+            local.insert(&keys[f], std::sync::Arc::new(image));
+        }
         for frame in start..end {
-            let image = match rendered.peek() {
-                Some((f, _)) if *f == frame => rendered.next().map(|(_, image)| image).expect("peeked"),
-                _ => previous.take().expect("a repeated frame follows a rendered one"),
-            };
+            let key = keys[frame].as_str();
+            let image = local.get(key).or_else(|| cache.get(key)).cloned().expect("every frame is rendered or cached");
             encoder.push(&image)?;
             if let Some(dir) = &partial_dir {
                 let path = dir.join(format!("{frame:06}.png"));
                 std::fs::write(&path, image.encode_png()).map_err(|e| VideoBuildError::Io(io(&path)(e)))?;
             }
             on_frame(frame, &image);
-            previous = Some(image);
+        }
+        for (key, image) in local {
+            if cached_bytes + image.data.len() <= CACHE_BYTES {
+                cached_bytes += image.data.len();
+                cache.insert(key.to_string(), image);
+            }
         }
     }
     let bytes = encoder.finish()?;

@@ -302,3 +302,35 @@ fn stimuli_shipped_specs_validate() {
         assert!(text.starts_with(expected), "{name}: {text}");
     }
 }
+
+/// Acceptance: the MP4 plays to the end in headless Chromium (`<video>` fires `ended`).
+#[test]
+fn stimuli_mp4_plays_to_the_end_in_headless_chromium() {
+    let dir = tempfile::tempdir().unwrap();
+    facslab_ok(dir.path(), &["render", "12", "--video", "--onset", "0.3", "--apex", "0.3", "--offset", "0.3", "--size", "63x64", "-o", "v.mp4"]);
+    let page = r#"<!doctype html><html><body><div id="status">loading</div>
+<video id="v" src="v.mp4" muted playsinline autoplay></video>
+<script>
+const v = document.getElementById('v'), s = document.getElementById('status');
+v.addEventListener('ended', () => { s.textContent = 'ended duration=' + v.duration; });
+v.addEventListener('error', () => { s.textContent = 'error ' + (v.error && v.error.code); });
+['loadedmetadata', 'playing', 'timeupdate'].forEach(n => v.addEventListener(n, () => {
+  if (!s.textContent.startsWith('ended')) s.textContent = n + ' t=' + v.currentTime; }));
+v.play().catch(e => { s.textContent = 'play failed ' + e; });
+</script></body></html>"#;
+    std::fs::write(dir.path().join("play.html"), page).unwrap();
+    let url = format!("file://{}", dir.path().join("play.html").display());
+    let browser = ["chromium", "chromium-browser", "google-chrome"].into_iter().find_map(|name| {
+        std::process::Command::new(name)
+            .args(["--headless", "--no-sandbox", "--disable-gpu", "--autoplay-policy=no-user-gesture-required"])
+            .args(["--virtual-time-budget=10000", "--dump-dom", &url])
+            .output()
+            .ok()
+    });
+    let Some(output) = browser else {
+        eprintln!("skipped: no chromium found (apt-get install chromium)");
+        return;
+    };
+    let dom = String::from_utf8_lossy(&output.stdout);
+    assert!(dom.contains("<div id=\"status\">ended duration=0.9</div>"), "the video did not play to the end:\n{dom}");
+}
