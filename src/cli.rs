@@ -401,7 +401,7 @@ fn render_timeline_video(
     }
     let (w, h) = engine::video::even_size(timeline.size[0], timeline.size[1]);
     if (w, h) != (timeline.size[0], timeline.size[1]) {
-        eprintln!("note: {}x{} frames were padded to {w}x{h} for H.264", timeline.size[0], timeline.size[1]);
+        eprintln!("note: {}x{} frames were padded to {w}x{h} for the video encoder", timeline.size[0], timeline.size[1]);
     }
     Ok(())
 }

@@ -334,3 +334,23 @@ v.play().catch(e => { s.textContent = 'play failed ' + e; });
     let dom = String::from_utf8_lossy(&output.stdout);
     assert!(dom.contains("<div id=\"status\">ended duration=0.9</div>"), "the video did not play to the end:\n{dom}");
 }
+
+/// The AV1 fallback (cargo feature `av1`): decodes to every frame, tagged BT.601 limited range.
+#[cfg(feature = "av1")]
+#[test]
+fn stimuli_av1_fallback_decodes_to_every_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    facslab_ok(dir.path(), &["render", "12", "--video", "--onset", "0.3", "--apex", "0.3", "--offset", "0.3", "--size", "63x64", "--codec", "av1", "-o", "a.mp4"]);
+    let Ok(probe) = std::process::Command::new("ffprobe")
+        .args(["-v", "error", "-count_frames", "-show_entries", "stream=codec_name,width,nb_read_frames,color_range,color_space", "-of", "default=nw=1", "a.mp4"])
+        .current_dir(dir.path())
+        .output()
+    else {
+        eprintln!("skipped: ffprobe is not installed (apt-get install ffmpeg)");
+        return;
+    };
+    let text = String::from_utf8_lossy(&probe.stdout);
+    for expected in ["codec_name=av1", "width=64", "nb_read_frames=27", "color_range=tv", "color_space=smpte170m"] {
+        assert!(text.lines().any(|l| l == expected), "ffprobe lacks {expected}:\n{text}");
+    }
+}
