@@ -365,8 +365,8 @@ pub fn render_video(
         for (f, image) in rendered {
             local.insert(&keys[f], std::sync::Arc::new(image));
         }
-        for frame in start..end {
-            let key = keys[frame].as_str();
+        for (frame, key) in keys.iter().enumerate().take(end).skip(start) {
+            let key = key.as_str();
             let image = local.get(key).or_else(|| cache.get(key)).cloned().expect("every frame is rendered or cached");
             encoder.push(&image)?;
             if let Some(dir) = &partial_dir {
