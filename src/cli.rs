@@ -118,6 +118,14 @@ enum Command {
     /// Build and check stimulus sets (specs in stimuli/sets/).
     #[command(subcommand)]
     Stimuli(StimuliCommand),
+
+    /// Compute the validation report from responses and the stimulus manifest.
+    #[command(after_help = "Examples:\n  facslab analyze --responses responses.csv --manifest manifest.csv -o report\n  facslab analyze --responses r.csv --manifest m.csv -o strict --match-side --match-intensity\n\nWrites report.json (every number), report.html (tables and plots), one CSV per table and\nthe plots as PNG files. Inputs are validated in full first; on any error nothing is written.")]
+    Analyze(crate::analysis::cli::AnalyzeArgs),
+
+    /// Write synthetic responses and a manifest shaped like one of the seed's experiments.
+    #[command(after_help = "Examples:\n  facslab simulate --design exp1 --seed 1 -o sim1           # 3 coders, 49 single AUs\n  facslab simulate --design exp2 --accuracy 0.8 -o sim2       # 54 AU combinations\n  facslab simulate --design exp3 --participants 40 --groups local,amt --missing 0.02 -o sim3\n\nWrites DIR/responses.csv and DIR/manifest.csv; the same options give the same bytes.")]
+    Simulate(crate::analysis::cli::SimulateArgs),
 }
 
 #[derive(Subcommand)]
@@ -296,6 +304,8 @@ fn dispatch(command: Command) -> anyhow::Result<()> {
             };
             write_png(&sheet.compose(), &output)
         }
+        Command::Analyze(args) => crate::analysis::cli::analyze(args),
+        Command::Simulate(args) => crate::analysis::cli::simulate(args),
     }
 }
 

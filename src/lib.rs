@@ -9,4 +9,5 @@ pub mod analysis;
 pub mod cli;
 pub mod engine;
 pub mod facs;
+pub mod report;
 pub mod stimuli;

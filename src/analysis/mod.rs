@@ -20,4 +20,14 @@
 //!   the reference values in `tests/fixtures/stats/` (scipy, statsmodels, pingouin,
 //!   scikit-learn, dtaidistance, tslearn, kmedoids).
 
+mod input;
+pub mod cli;
+pub mod coding;
+pub mod demographics;
+pub mod manifest;
+pub mod rating;
+pub mod simulate;
+pub mod responses;
 pub mod stats;
+
+pub use input::InputError;

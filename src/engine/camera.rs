@@ -6,7 +6,7 @@
 //! compared as 1/w (reciprocal view distance), which never saturates. The near plane sits at
 //! [`Camera::near`].
 
-use glam::{Mat4, Vec3};
+use glam::{Mat4, Vec3, Vec4};
 
 /// A perspective camera rendering a `width` × `height` image (square pixels).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -23,7 +23,15 @@ pub struct Camera {
 impl Camera {
     /// World → view transform (right-handed, the camera looks down −z, +y up).
     pub fn view(&self) -> Mat4 {
-        glam::camera::rh::view::look_at_mat4(self.eye, self.target, self.up)
+        let forward = (self.target - self.eye).normalize();
+        let right = forward.cross(self.up).normalize();
+        let up = right.cross(forward);
+        Mat4::from_cols(
+            Vec4::new(right.x, up.x, -forward.x, 0.0),
+            Vec4::new(right.y, up.y, -forward.y, 0.0),
+            Vec4::new(right.z, up.z, -forward.z, 0.0),
+            Vec4::new(-right.dot(self.eye), -up.dot(self.eye), forward.dot(self.eye), 1.0),
+        )
     }
 
     /// Distance of the near clipping plane from the eye: 1/1000 of the eye–target distance.

@@ -112,37 +112,87 @@ pub fn srgb_to_linear(encoded: f32) -> f32 {
 
 /// Linear `[0, 1]` → 8-bit sRGB, i.e. `round(255 · linear_to_srgb(linear))`, NaN → 0.
 ///
-/// Evaluated without `powf` per call: a table of the 255 linear values at which the rounded
-/// output steps up (built once, in `f64`) is searched by bisection. Fast and deterministic.
+/// Evaluated without `powf` per call: the 255 linear values at which the rounded output steps
+/// up are computed once (in `f64`, nudged to the exact `f32` boundary); a 4096-bucket table
+/// gives the output at the start of each bucket, and at most a step or two over the
+/// thresholds finishes the job. Exact with respect to the formula, fast and deterministic.
 pub fn linear_to_srgb8(linear: f32) -> u8 {
-    let thresholds = srgb8_thresholds();
-    if linear.is_nan() {
-        return 0;
+    Srgb8::new().encode(linear)
+}
+
+/// [`linear_to_srgb8`] with its tables fetched once, for loops over many pixels.
+#[derive(Clone, Copy)]
+pub struct Srgb8(&'static Srgb8Tables);
+
+impl Srgb8 {
+    pub fn new() -> Self {
+        Srgb8(srgb8_tables())
     }
-    // Number of thresholds ≤ `linear` (thresholds are strictly increasing).
-    thresholds.partition_point(|&t| t <= linear) as u8
+
+    /// Same as [`linear_to_srgb8`].
+    #[inline]
+    pub fn encode(self, linear: f32) -> u8 {
+        // NaN and negatives → 0; the multiplication by a power of two is exact, so the bucket
+        // starts at or below `x`, and a bucket never spans more than one step.
+        let x = if linear > 0.0 { linear.min(1.0) } else { 0.0 };
+        let start = self.0.bucket_start[(x * SRGB_BUCKETS as f32) as usize];
+        start + u8::from(x >= self.0.thresholds[start as usize])
+    }
+}
+
+impl Default for Srgb8 {
+    fn default() -> Self {
+        Srgb8::new()
+    }
+}
+
+const SRGB_BUCKETS: usize = 4096;
+
+struct Srgb8Tables {
+    /// [`srgb8_thresholds`] then +∞.
+    thresholds: [f32; 256],
+    /// Output for the value `i / SRGB_BUCKETS`, i = 0..=SRGB_BUCKETS.
+    bucket_start: [u8; SRGB_BUCKETS + 1],
+}
+
+fn srgb8_tables() -> &'static Srgb8Tables {
+    static TABLES: OnceLock<Srgb8Tables> = OnceLock::new();
+    TABLES.get_or_init(|| {
+        let steps = srgb8_thresholds();
+        let mut thresholds = [f32::INFINITY; 256];
+        thresholds[..255].copy_from_slice(&steps);
+        let bucket_start: [u8; SRGB_BUCKETS + 1] = std::array::from_fn(|i| {
+            let x = i as f32 / SRGB_BUCKETS as f32;
+            steps.partition_point(|&t| t <= x) as u8
+        });
+        // `encode` takes at most one step inside a bucket: the steepest slope of the curve,
+        // 12.92 · 255 / 4096 ≈ 0.8 output levels per bucket, guarantees it.
+        for (i, &start) in bucket_start[..SRGB_BUCKETS].iter().enumerate() {
+            let next_step = thresholds.get(start as usize + 1).copied().unwrap_or(f32::INFINITY);
+            let bucket_end = (i + 1) as f32 / SRGB_BUCKETS as f32;
+            assert!(next_step >= bucket_end, "sRGB bucket {i} spans more than one output step");
+        }
+        Srgb8Tables { thresholds, bucket_start }
+    })
 }
 
 /// `t[k]` = smallest f32 `x` with `255 · linear_to_srgb(x) ≥ k + 0.5`, for k = 0..255.
-fn srgb8_thresholds() -> &'static [f32; 255] {
-    static TABLE: OnceLock<[f32; 255]> = OnceLock::new();
-    TABLE.get_or_init(|| {
-        let mut table = [0f32; 255];
-        for (k, slot) in table.iter_mut().enumerate() {
-            let target = (k as f64 + 0.5) / 255.0;
-            let mut x = srgb_to_linear(target as f32);
-            // Nudge to the exact f32 boundary of the forward formula.
-            let encodes_above = |x: f32| f64::from(linear_to_srgb(x)) >= target;
-            while !encodes_above(x) {
-                x = f32::from_bits(x.to_bits() + 1);
-            }
-            while x > 0.0 && encodes_above(f32::from_bits(x.to_bits() - 1)) {
-                x = f32::from_bits(x.to_bits() - 1);
-            }
-            *slot = x;
+fn srgb8_thresholds() -> [f32; 255] {
+    let mut table = [0f32; 255];
+    for (k, slot) in table.iter_mut().enumerate() {
+        let target = (k as f64 + 0.5) / 255.0;
+        let mut x = srgb_to_linear(target as f32);
+        // Nudge to the exact f32 boundary of the forward formula.
+        let encodes_above = |x: f32| f64::from(linear_to_srgb(x)) >= target;
+        while !encodes_above(x) {
+            x = f32::from_bits(x.to_bits() + 1);
         }
-        table
-    })
+        while x > 0.0 && encodes_above(f32::from_bits(x.to_bits() - 1)) {
+            x = f32::from_bits(x.to_bits() - 1);
+        }
+        *slot = x;
+    }
+    table
 }
 
 #[cfg(test)]
@@ -151,10 +201,21 @@ mod tests {
 
     #[test]
     fn srgb8_matches_the_formula() {
-        for i in 0..=20_000u32 {
-            let x = i as f32 / 20_000.0;
+        for i in 0..=200_000u32 {
+            let x = i as f32 / 200_000.0;
             let expected = (f64::from(linear_to_srgb(x)) * 255.0 + 0.5).floor() as u8;
             assert_eq!(linear_to_srgb8(x), expected, "x = {x}");
+        }
+        // Also across the whole f32 range below 1, by bit pattern (denser near 0).
+        for bits in (0..1.0f32.to_bits()).step_by(997) {
+            let x = f32::from_bits(bits);
+            let expected = (f64::from(linear_to_srgb(x)) * 255.0 + 0.5).floor() as u8;
+            assert_eq!(linear_to_srgb8(x), expected, "x = {x}");
+        }
+        for k in 0..255 {
+            let t = srgb8_thresholds()[k];
+            assert_eq!(linear_to_srgb8(t), k as u8 + 1);
+            assert_eq!(linear_to_srgb8(f32::from_bits(t.to_bits() - 1)), k as u8);
         }
         assert_eq!(linear_to_srgb8(-1.0), 0);
         assert_eq!(linear_to_srgb8(f32::NAN), 0);

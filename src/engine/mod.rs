@@ -32,6 +32,10 @@ use pose::{PreparedIdentity, Posed};
 use raster::{RenderOptions, SampleCount, Triangles};
 use rig::AuBasis;
 
+/// Shadow-map resolution: shadows are looked up per vertex and are soft, so this need not
+/// follow the image size.
+const SHADOW_MAP_SIZE: u32 = 288;
+
 /// The default still size, as HapFACS's stimuli (485×480).
 pub const DEFAULT_SIZE: (u32, u32) = (485, 480);
 
@@ -100,7 +104,13 @@ pub fn render_posed(posed: &Posed, identity: &Identity, settings: FrameSettings)
         })
         .collect();
     let camera = portrait_camera(posed.anchor, width, height);
-    let shadow = shade::ShadowMap::new(&scene, posed.anchor + Vec3::new(0.0, -0.3, 0.0), 320, threads);
+    // Lashes are too thin to cast visible shadows; at shadow-map resolution they would smear.
+    let casters: Vec<Triangles> = scene
+        .iter()
+        .filter(|t| !matches!(Part::from_id(t.part), Some(Part::LashesUpper | Part::LashesLower)))
+        .copied()
+        .collect();
+    let shadow = shade::ShadowMap::new(&casters, posed.anchor + Vec3::new(0.0, -0.3, 0.0), SHADOW_MAP_SIZE, threads);
     let shader = shade::FaceShader::new(model, posed, identity, height).with_shadows(&shadow);
     let options = RenderOptions { samples_per_pixel: SampleCount::X4, threads, backface_culling: false };
     Ok(raster::render(&scene, &camera, &shader, &options))

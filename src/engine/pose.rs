@@ -25,8 +25,6 @@ pub const EYE_RADIUS: f32 = 0.14954;
 /// the eyes).
 const JAW_PIVOT: Vec3 = Vec3::new(0.0, -0.284, -0.695);
 const HEAD_PIVOT: Vec3 = Vec3::new(0.0, -0.73, -1.095);
-/// The neck blends from still (below) to moving with the head (above), by base-mesh height.
-const NECK_BLEND: (f32, f32) = (5.95, 6.6);
 /// Width of the midline blend between left and right halves, decimetres.
 const MIDLINE_BLEND: f32 = 0.06;
 
@@ -148,7 +146,7 @@ pub fn pose(model: &FaceModel, prepared: &PreparedIdentity, values: &ChannelValu
     let anchor = (prepared.eye_centres[0] + prepared.eye_centres[1]) / 2.0;
     rotate_jaw(model, &mut positions, anchor + JAW_PIVOT, values.rigid(&Channel::JawOpen))?;
     let mut eyes = turn_eyes(model, prepared, &mut positions, values);
-    turn_head(&model.rest, anchor + HEAD_PIVOT, &mut positions, &mut eyes, values);
+    turn_head(head_weights(model)?, anchor + HEAD_PIVOT, &mut positions, &mut eyes, values);
     let normals = vertex_normals(model, &positions);
     Ok(Posed { positions, normals, neutral: Arc::clone(neutral), eyes, anchor, appearance })
 }
@@ -257,7 +255,23 @@ fn turn_eyes(model: &FaceModel, prepared: &PreparedIdentity, positions: &mut [Ve
     })
 }
 
-fn turn_head(rest: &[Vec3], pivot: Vec3, positions: &mut [Vec3], eyes: &mut [EyeFrame; 2], values: &ChannelValues) {
+/// How much each vertex follows the head when it turns: 1 for the head and face, falling off
+/// down the neck by MakeHuman's skinning weights (lowest neck bone still, upper ones partly).
+fn head_weights(model: &FaceModel) -> Result<&'static [f32], AssetError> {
+    static WEIGHTS: OnceLock<Vec<f32>> = OnceLock::new();
+    if let Some(w) = WEIGHTS.get() {
+        return Ok(w);
+    }
+    let mut still = vec![0.0f32; model.rest.len()];
+    for (bone, share) in [("neck01", 1.0), ("neck02", 0.65), ("neck03", 0.3), ("spine01", 1.0), ("clavicle.L", 1.0), ("clavicle.R", 1.0)] {
+        for (s, w) in still.iter_mut().zip(model.region(&format!("bone-{bone}"))?) {
+            *s += share * w;
+        }
+    }
+    Ok(WEIGHTS.get_or_init(|| still.iter().map(|s| (1.0 - s).clamp(0.0, 1.0)).collect()))
+}
+
+fn turn_head(weights: &[f32], pivot: Vec3, positions: &mut [Vec3], eyes: &mut [EyeFrame; 2], values: &ChannelValues) {
     let yaw = values.rigid(&Channel::HeadYaw).to_radians();
     let pitch = values.rigid(&Channel::HeadPitch).to_radians();
     let roll = values.rigid(&Channel::HeadRoll).to_radians();
@@ -268,8 +282,7 @@ fn turn_head(rest: &[Vec3], pivot: Vec3, positions: &mut [Vec3], eyes: &mut [Eye
     let rotation = Mat3::from_rotation_y(yaw) * Mat3::from_rotation_x(pitch) * Mat3::from_rotation_z(-roll);
     let shift = Vec3::new(0.0, 0.0, forward);
     let transform = |p: Vec3| rotation * (p - pivot) + pivot + shift;
-    for (p, rest) in positions.iter_mut().zip(rest) {
-        let w = smoothstep(NECK_BLEND.0, NECK_BLEND.1, rest.y);
+    for (p, &w) in positions.iter_mut().zip(weights) {
         if w > 0.0 {
             *p = p.lerp(transform(*p), w);
         }

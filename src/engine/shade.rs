@@ -81,7 +81,7 @@ impl ShadowMap {
         ShadowMap { view: camera.view(), camera, distance }
     }
 
-    /// Fraction of the key light reaching `position` (0 = in shadow), softened over 3×3 texels.
+    /// Fraction of the key light reaching `position` (0 = in shadow), softened over a 4×4 texel footprint.
     fn light(&self, position: Vec3) -> f32 {
         let h = self.camera.view_to_homogeneous_pixel(self.view.transform_point3(position));
         if h.z < self.camera.near() {
@@ -89,18 +89,23 @@ impl ShadowMap {
         }
         let p = Vec3::new(h.x / h.z, h.y / h.z, h.z);
         let (w, h) = (self.camera.width as i32, self.camera.height as i32);
-        let (cx, cy) = (p.x.floor() as i32, p.y.floor() as i32);
-        let bias = 0.02;
-        let mut lit = 0;
-        for dy in -1..=1 {
-            for dx in -1..=1 {
+        // Bilinear percentage-closer filtering over a 4×4 texel footprint.
+        let (fx, fy) = (p.x - 0.5, p.y - 0.5);
+        let (cx, cy) = (fx.floor() as i32, fy.floor() as i32);
+        let (tx, ty) = (fx - cx as f32, fy - cy as f32);
+        let bias = 0.035;
+        let mut lit = 0.0;
+        for dy in -1..=2 {
+            let wy = match dy { -1 => 1.0 - ty, 2 => ty, _ => 1.0 };
+            for dx in -1..=2 {
+                let wx = match dx { -1 => 1.0 - tx, 2 => tx, _ => 1.0 };
                 let (x, y) = ((cx + dx).clamp(0, w - 1), (cy + dy).clamp(0, h - 1));
                 if p.z <= self.distance[(y * w + x) as usize] + bias {
-                    lit += 1;
+                    lit += wx * wy;
                 }
             }
         }
-        lit as f32 / 9.0
+        lit / 9.0
     }
 }
 
@@ -138,8 +143,9 @@ type ActivePatterns = Vec<(Pattern, f32, f32)>;
 /// Shades the head for one frame.
 pub struct FaceShader<'a> {
     maps: SkinMaps,
+    /// Fraction of the key light reaching each vertex (1 everywhere without a shadow map).
+    key_light: Vec<f32>,
     patterns: ActivePatterns,
-    shadow: Option<&'a ShadowMap>,
     model: &'a FaceModel,
     posed: &'a Posed,
     identity: &'a Identity,
@@ -158,12 +164,15 @@ impl<'a> FaceShader<'a> {
             })
             .collect();
         let maps = SkinMaps::new(model, identity);
-        FaceShader { maps, patterns, shadow: None, model, posed, identity, regions: regions(model), lights: lights(), height }
+        let key_light = vec![1.0; posed.positions.len()];
+        FaceShader { maps, key_light, patterns, model, posed, identity, regions: regions(model), lights: lights(), height }
     }
 
-    /// Casts the key light's shadows from `shadow`.
-    pub fn with_shadows(self, shadow: &'a ShadowMap) -> FaceShader<'a> {
-        FaceShader { shadow: Some(shadow), ..self }
+    /// Casts the key light's shadows from `shadow`, looked up once per vertex (offset along the
+    /// normal so that surfaces do not shadow themselves) and interpolated across triangles.
+    pub fn with_shadows(self, shadow: &ShadowMap) -> FaceShader<'a> {
+        let key_light = self.posed.positions.iter().zip(&self.posed.normals).map(|(&p, &n)| shadow.light(p + n * 0.02)).collect();
+        FaceShader { key_light, ..self }
     }
 
     fn interpolate(&self, values: &[f32], f: &Fragment) -> f32 {
@@ -192,8 +201,7 @@ impl<'a> FaceShader<'a> {
         let view = f.view_dir;
         let ambient = SKY.lerp(GROUND, (0.5 - 0.5 * normal.y).clamp(0.0, 1.0));
         let mut colour = albedo * ambient;
-        // Offsetting along the normal keeps surfaces from shadowing themselves (acne).
-        let key_reaches = self.shadow.map_or(1.0, |s| s.light(f.position + normal * 0.01));
+        let key_reaches = self.interpolate(&self.key_light, f);
         for (n, light) in self.lights.iter().enumerate() {
             let reach = if n == 0 { 0.15 + 0.85 * key_reaches } else { 1.0 };
             let n_dot_l = normal.dot(light.direction);
@@ -204,7 +212,8 @@ impl<'a> FaceShader<'a> {
                 ((n_dot_l + wrap * 0.8) / (1.0 + wrap * 0.8)).max(0.0),
             );
             colour += albedo * light.colour * wrapped * reach;
-            if n_dot_l > 0.0 {
+            // Only the key light is bright enough to give a visible highlight.
+            if n == 0 && n_dot_l > 0.0 {
                 let half = (light.direction + view).normalize();
                 let fresnel = 0.04 + 0.96 * (1.0 - view.dot(half).max(0.0)).powi(5);
                 let lobe = normal.dot(half).max(0.0).powf(shininess) * (shininess + 8.0) / 25.0;
@@ -234,8 +243,7 @@ impl<'a> FaceShader<'a> {
 
         // Albedo: skin with mottling, cheeks, lips, stubble, brows, hair, mouth interior.
         let maps = &self.maps;
-        let pores = 1.0 + 0.04 * (value_noise(rest * 160.0) - 0.5);
-        let mut albedo = identity.skin * self.interpolate(&maps.mottle, f) * pores;
+        let mut albedo = identity.skin * self.interpolate(&maps.mottle, f);
         let cheek = self.interpolate(&maps.cheek, f);
         albedo = albedo.lerp(albedo * Vec3::new(1.08, 0.9, 0.88), 0.5 * cheek);
         albedo = albedo.lerp(identity.lips, lips);
@@ -283,7 +291,7 @@ impl<'a> FaceShader<'a> {
         // The upper lid shades the top of the eyeball.
         let lid_shadow = 1.0 - 0.45 * smoothstep(0.1, 0.7, d.dot(eye.up));
         let colour = self.lit(f, d, albedo * lid_shadow, 0.1, 0.0, 1.0);
-        colour + self.cornea_highlight(d, f.view_dir) * self.shadow.map_or(1.0, |s| s.light(f.position))
+        colour + self.cornea_highlight(d, f.view_dir) * self.interpolate(&self.key_light, f)
     }
 
     fn cornea_highlight(&self, normal: Vec3, view: Vec3) -> Vec3 {
@@ -317,7 +325,14 @@ impl Shader for FaceShader<'_> {
         match Part::from_id(f.part) {
             Some(Part::Skin) | None => self.shade_skin(f),
             Some(part @ (Part::EyeLeft | Part::EyeRight)) => self.shade_eye(f, Self::eye_index(part)),
-            Some(Part::TeethUpper | Part::TeethLower) => self.shade_mouth_part(f, Vec3::new(0.70, 0.66, 0.56), 0.5),
+            Some(Part::TeethUpper | Part::TeethLower) => {
+                // Gaps between teeth: narrow dark lines at each tooth's edge across the arch.
+                let x = self.rest(f).x.abs();
+                let widths = [0.0, 0.08, 0.14, 0.2, 0.26];
+                let gap = widths.iter().map(|&w| (-((x - w) / 0.004).powi(2)).exp()).fold(0.0, f32::max);
+                let enamel = Vec3::new(0.70, 0.66, 0.56) * (1.0 - 0.55 * gap);
+                self.shade_mouth_part(f, enamel, 0.5)
+            }
             Some(Part::Tongue) => self.shade_mouth_part(f, Vec3::new(0.45, 0.12, 0.12), 0.3),
             Some(Part::LashesUpper) => self.identity.hair * 0.3 + Vec3::splat(0.012),
             Some(Part::LashesLower) => self.shade_skin_tone_lash(f),
@@ -350,9 +365,10 @@ fn brow_mask(rest: Vec3) -> f32 {
     }
     let x = rest.x.abs();
     let t = (x - 0.075) / 0.44;
-    if !(-0.05..=1.05).contains(&t) {
+    if !(-0.02..=1.05).contains(&t) {
         return 0.0;
     }
+    let t_raw = t;
     let t = t.clamp(0.0, 1.0);
     let centre = 7.44 + 0.07 * (std::f32::consts::PI * t.powf(0.7)).sin() - 0.035 * t;
     let half = 0.030 * (1.0 - 0.55 * t) + 0.006;
@@ -360,22 +376,25 @@ fn brow_mask(rest: Vec3) -> f32 {
     // Strands lean outward and upward near the head of the brow, outward along the tail.
     let strand = value_noise(Vec3::new((x - rest.y * (0.9 - 0.8 * t)) * 300.0, rest.y * 20.0, 0.5));
     let body = 1.0 - smoothstep(0.55, 1.0 + 0.25 * strand, across.abs());
-    let ends = smoothstep(-0.05, 0.06, t) * (1.0 - smoothstep(0.9, 1.04, t));
+    let ends = smoothstep(0.0, 0.1, t_raw + 0.02 * (strand - 0.5)) * (1.0 - smoothstep(0.9, 1.04, t));
     (body * ends * (0.75 + 0.35 * strand)).clamp(0.0, 1.0)
 }
 
 /// Scalp hair: above a hairline that runs high over the forehead and low at the nape.
 fn hair_mask(rest: Vec3, raise: f32) -> f32 {
     let x = rest.x.abs();
-    let line = if rest.z > 1.15 {
-        8.02 + 0.6 * (x - 0.35).max(0.0).powi(2) * 4.0
-    } else if rest.z > 0.85 {
-        7.60 + (rest.z - 0.85) / 0.30 * 0.42
-    } else if rest.z > 0.35 {
-        7.25 + (rest.z - 0.35) / 0.50 * 0.35
-    } else {
-        6.75 + rest.z.max(0.0) / 0.35 * 0.50
-    };
+    // Hairline height as a smooth function of depth: high over the forehead, down over the
+    // temples and ears, low at the nape.
+    let front = 8.02 + 2.4 * (x - 0.35).max(0.0).powi(2);
+    let profile = [(0.0, 6.75), (0.35, 7.25), (0.85, 7.6), (1.15, front)];
+    let z = rest.z.clamp(0.0, 1.15);
+    let line = profile
+        .windows(2)
+        .find(|w| z <= w[1].0)
+        .map_or(front, |w| {
+            let t = smoothstep(w[0].0, w[1].0, z);
+            w[0].1 + (w[1].1 - w[0].1) * t
+        });
     let edge = 0.025 + 0.02 * value_noise(rest * 90.0);
     smoothstep(line + raise - edge, line + raise + edge, rest.y)
 }

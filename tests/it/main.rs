@@ -1,5 +1,6 @@
 //! Integration tests: drive the real `facslab` binary on files in a temporary directory.
 
+mod analyze;
 mod cli;
 mod golden;
 mod render;

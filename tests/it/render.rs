@@ -76,6 +76,6 @@ fn sheet_renders_every_au() {
     let bytes = std::fs::read(dir.path().join("sheet.png")).unwrap();
     let width = u32::from_be_bytes(bytes[16..20].try_into().unwrap());
     let height = u32::from_be_bytes(bytes[20..24].try_into().unwrap());
-    // neutral + 52 AUs + 2 × 32 one-sided variants = 117 tiles, 12 rows of 10.
+    // neutral + 54 AUs + 2 × 31 one-sided variants = 117 tiles, 12 rows of 10.
     assert_eq!((width, height), (480, 12 * (48 + 22)));
 }

@@ -1,0 +1,97 @@
+//! Errors and CSV plumbing shared by the response and manifest readers.
+//!
+//! Every error names the file, and where a cell is at fault, the data row (1-based, the header
+//! not counted), the file line, and the column name, so a user can go straight to the cell.
+
+use std::path::{Path, PathBuf};
+
+/// Why an input file could not be used. Nothing is written when any of these occurs.
+#[derive(Debug, thiserror::Error)]
+pub enum InputError {
+    #[error("{file}: cannot read: {source}")]
+    Io { file: PathBuf, source: std::io::Error },
+    #[error("{file}: not valid CSV at line {line}: {detail}")]
+    Csv { file: PathBuf, line: u64, detail: String },
+    #[error("{file}: missing column \"{column}\" (the header has: {header})")]
+    MissingColumn { file: PathBuf, column: &'static str, header: String },
+    #[error("{file}: row {row} (line {line}), column \"{column}\": {problem}")]
+    Cell { file: PathBuf, row: u64, line: u64, column: String, problem: String },
+    #[error("{file}: no data rows")]
+    Empty { file: PathBuf },
+}
+
+/// A CSV file opened for reading by column name.
+pub(crate) struct CsvInput {
+    pub file: PathBuf,
+    reader: csv::Reader<Box<dyn std::io::Read>>,
+    header: csv::StringRecord,
+}
+
+/// Where a record sits, for error messages.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Place {
+    pub row: u64,
+    pub line: u64,
+}
+
+impl CsvInput {
+    pub fn open(path: &Path) -> Result<Self, InputError> {
+        let file = std::fs::File::open(path).map_err(|source| InputError::Io { file: path.into(), source })?;
+        Self::from_reader(path, Box::new(std::io::BufReader::with_capacity(1 << 20, file)))
+    }
+
+    pub fn from_reader(path: &Path, read: Box<dyn std::io::Read>) -> Result<Self, InputError> {
+        let mut reader = csv::ReaderBuilder::new().has_headers(true).flexible(false).from_reader(read);
+        let header = reader.headers().map_err(|e| csv_error(path, &e))?.clone();
+        Ok(Self { file: path.into(), reader, header })
+    }
+
+    /// The index of a required column.
+    pub fn column(&self, column: &'static str) -> Result<usize, InputError> {
+        self.header.iter().position(|h| h.trim() == column).ok_or_else(|| InputError::MissingColumn {
+            file: self.file.clone(),
+            column,
+            header: self.header.iter().collect::<Vec<_>>().join(","),
+        })
+    }
+
+    /// Calls `each` for every data row with its place; stops at the first error.
+    pub fn for_each(
+        &mut self,
+        mut each: impl FnMut(&csv::StringRecord, Place) -> Result<(), InputError>,
+    ) -> Result<u64, InputError> {
+        let mut record = csv::StringRecord::new();
+        let mut row = 0;
+        loop {
+            match self.reader.read_record(&mut record) {
+                Ok(false) => break,
+                Ok(true) => {
+                    row += 1;
+                    let line = record.position().map_or(row + 1, |p| p.line());
+                    each(&record, Place { row, line })?;
+                }
+                Err(e) => return Err(csv_error(&self.file, &e)),
+            }
+        }
+        if row == 0 {
+            return Err(InputError::Empty { file: self.file.clone() });
+        }
+        Ok(row)
+    }
+
+    /// An error about one cell.
+    pub fn cell(&self, place: Place, column: &str, problem: impl Into<String>) -> InputError {
+        InputError::Cell {
+            file: self.file.clone(),
+            row: place.row,
+            line: place.line,
+            column: column.to_string(),
+            problem: problem.into(),
+        }
+    }
+}
+
+fn csv_error(path: &Path, e: &csv::Error) -> InputError {
+    let line = e.position().map_or(0, |p| p.line());
+    InputError::Csv { file: path.into(), line, detail: e.to_string() }
+}

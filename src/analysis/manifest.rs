@@ -1,0 +1,168 @@
+//! The stimulus manifest as the analysis needs it: what each stimulus shows.
+//!
+//! Reads `manifest.csv` (design.md §3) by column name and uses only `stimulus_id`, `media`,
+//! `identity`, `expression`, `emotion` and `intensity`; other columns (files, timing, hashes,
+//! seeds) are ignored, so the builder can add columns without breaking the analysis.
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use super::input::{CsvInput, InputError};
+use crate::facs::{Catalog, EmotionTable, Expression};
+
+/// Still image or video.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Media {
+    Image,
+    Video,
+}
+
+impl Media {
+    pub fn label(self) -> &'static str {
+        match self {
+            Media::Image => "image",
+            Media::Video => "video",
+        }
+    }
+}
+
+/// One stimulus and its ground truth.
+#[derive(Debug, Clone)]
+pub struct Stimulus {
+    pub id: String,
+    pub media: Media,
+    pub identity: String,
+    /// What the face shows (FACS notation with sides and intensities).
+    pub expression: Expression,
+    /// The EmFACS label the stimulus portrays, if it portrays one.
+    pub emotion: Option<String>,
+    /// Peak intensity in [0, 1].
+    pub intensity: f64,
+}
+
+impl Stimulus {
+    /// The peak intensity in whole percent (`100`, `50`), the unit the seed's tables use.
+    pub fn intensity_percent(&self) -> u32 {
+        (self.intensity * 100.0).round() as u32
+    }
+}
+
+/// Every stimulus of a set, indexed by id.
+#[derive(Debug, Clone, Default)]
+pub struct Manifest {
+    pub stimuli: Vec<Stimulus>,
+    index: HashMap<String, usize>,
+}
+
+impl Manifest {
+    /// Reads and validates a manifest file.
+    pub fn read(path: &Path, catalog: &Catalog, emotions: &EmotionTable) -> Result<Manifest, InputError> {
+        Self::parse(CsvInput::open(path)?, catalog, emotions)
+    }
+
+    /// Reads a manifest from CSV text (`name` is used in error messages).
+    pub fn from_csv(name: &str, text: &str, catalog: &Catalog, emotions: &EmotionTable) -> Result<Manifest, InputError> {
+        let bytes = text.as_bytes().to_vec();
+        Self::parse(CsvInput::from_reader(Path::new(name), Box::new(std::io::Cursor::new(bytes)))?, catalog, emotions)
+    }
+
+    fn parse(mut input: CsvInput, catalog: &Catalog, emotions: &EmotionTable) -> Result<Manifest, InputError> {
+        let c_id = input.column("stimulus_id")?;
+        let c_media = input.column("media")?;
+        let c_identity = input.column("identity")?;
+        let c_expr = input.column("expression")?;
+        let c_emotion = input.column("emotion")?;
+        let c_intensity = input.column("intensity")?;
+        let mut manifest = Manifest::default();
+        let mut rows = Vec::new();
+        input.for_each(|r, place| {
+            rows.push((r.clone(), place));
+            Ok(())
+        })?;
+        for (r, place) in rows {
+            let id = r[c_id].trim();
+            if id.is_empty() {
+                return Err(input.cell(place, "stimulus_id", "empty stimulus id"));
+            }
+            let media = match r[c_media].trim() {
+                "image" => Media::Image,
+                "video" => Media::Video,
+                other => return Err(input.cell(place, "media", format!("\"{other}\" is not image or video"))),
+            };
+            let expression = catalog.parse(&r[c_expr]).map_err(|e| input.cell(place, "expression", e.to_string()))?;
+            let emotion = match r[c_emotion].trim() {
+                "" => None,
+                label if emotions.get(label).is_some() => Some(label.to_string()),
+                label => return Err(input.cell(place, "emotion", format!("\"{label}\" is not an emotion of the EmFACS table"))),
+            };
+            let intensity: f64 = r[c_intensity]
+                .trim()
+                .parse()
+                .ok()
+                .filter(|v: &f64| (0.0..=1.0).contains(v))
+                .ok_or_else(|| input.cell(place, "intensity", format!("\"{}\" is not a number in [0, 1]", &r[c_intensity])))?;
+            if manifest.index.insert(id.to_string(), manifest.stimuli.len()).is_some() {
+                return Err(input.cell(place, "stimulus_id", format!("stimulus id \"{id}\" appears twice")));
+            }
+            manifest.stimuli.push(Stimulus {
+                id: id.to_string(),
+                media,
+                identity: r[c_identity].trim().to_string(),
+                expression,
+                emotion,
+                intensity,
+            });
+        }
+        Ok(manifest)
+    }
+
+    /// The position of a stimulus id in [`Manifest::stimuli`].
+    pub fn position(&self, id: &str) -> Option<usize> {
+        self.index.get(id).copied()
+    }
+
+    pub fn len(&self) -> usize {
+        self.stimuli.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.stimuli.is_empty()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const HEADER: &str = "stimulus_id,media,file,identity,expression,emotion,intensity,onset_s,apex_s,offset_s,frames,fps,width,height,sha256,set_seed,engine_version";
+
+    fn read(text: &str) -> Result<Manifest, InputError> {
+        Manifest::from_csv("m.csv", text, Catalog::built_in(), &EmotionTable::built_in())
+    }
+
+    #[test]
+    fn reads_the_columns_it_needs_and_ignores_the_rest() {
+        let text = format!("{HEADER},extra\na1,video,a1.mp4,wm1,1+2+R14C,,1,1,1,1,90,30,486,480,00,7,0.1,x\nb2,image,b2.png,bf1,6+12+25,happiness,0.5,,,,1,,485,480,00,7,0.1,y\n");
+        let m = read(&text).unwrap();
+        assert_eq!(m.len(), 2);
+        assert_eq!(m.stimuli[0].expression.to_string(), "1+2+R14C");
+        assert_eq!(m.stimuli[1].emotion.as_deref(), Some("happiness"));
+        assert_eq!(m.stimuli[1].intensity_percent(), 50);
+        assert_eq!(m.position("b2"), Some(1));
+    }
+
+    #[test]
+    fn errors_name_row_line_and_column() {
+        let text = format!("{HEADER}\na1,video,a1.mp4,wm1,1+2,,1,,,,,,,,,,\nb2,image,b2.png,wm1,1+99,,1,,,,,,,,,,\n");
+        let err = read(&text).unwrap_err().to_string();
+        assert!(err.contains("row 2 (line 3), column \"expression\""), "{err}");
+        assert!(err.contains("AU 99"), "{err}");
+        let err = read("stimulus_id,media,identity,expression,intensity\n").unwrap_err().to_string();
+        assert!(err.contains("missing column \"emotion\""), "{err}");
+        let text = format!("{HEADER}\na1,video,a1.mp4,wm1,1,,1.5,,,,,,,,,,\n");
+        assert!(read(&text).unwrap_err().to_string().contains("column \"intensity\""));
+        let text = format!("{HEADER}\na1,video,a1.mp4,wm1,1,,1,,,,,,,,,,\na1,video,a1.mp4,wm1,2,,1,,,,,,,,,,\n");
+        assert!(read(&text).unwrap_err().to_string().contains("appears twice"));
+    }
+}

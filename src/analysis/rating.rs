@@ -1,0 +1,523 @@
+//! Lay raters: emotion recognition and ratings (HapFACS Exp. 3–4, Tables 6–14).
+//!
+//! Conventions (also written into the report):
+//! - **Conditions**: stimuli are grouped by media and peak intensity in whole percent
+//!   (`video 100%`, `image 50%` …), the stimulus groups of Tables 7–10 and 12.
+//! - **Label set**: the EmFACS labels (non-neutral ones alphabetically, then `neutral`) plus
+//!   `none`; chance = 1 / number of options. Confusion rows = shown emotion (only emotions
+//!   shown in the condition), columns = chosen label; percent = row percent.
+//! - **Recognition rate** = hits / answers for the shown emotion; the condition's average rate
+//!   is the unweighted mean over the shown emotions (the seed's "Average rate"); accuracy is
+//!   hits / all answers. Hu: Wagner (1993) per label. Binomial test: exact, one-sided
+//!   (greater) against chance, Clopper–Pearson 95 % CI.
+//! - **Ratings** (believability, description match, q1, q2): mean and sample SD (n − 1) over all
+//!   ratings of a condition × emotion cell. Cronbach's α with participants as items and stimuli as
+//!   cases, per condition (all its stimuli) and per condition × emotion (when ≥ 2 stimuli),
+//!   complete cases only: participants who rated every stimulus of the cell.
+//! - **Group comparisons**: per pair of participant groups and per condition, per-participant
+//!   recognition (proportion correct) and mean believability; per condition × emotion,
+//!   per-participant proportion correct. Student (pooled) and Welch t, two-sided, Cohen's d
+//!   (pooled SD), 95 % CI of the difference.
+//! - **ANOVA**: per media, emotion × intensity between-subjects two-way ANOVA on recognition
+//!   (1 = correct, per answer) and on believability (per rating), Type II and Type III SS with
+//!   sum-to-zero contrasts.
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use serde::Serialize;
+
+use super::coding::Maybe;
+use super::manifest::{Manifest, Media};
+use super::responses::{Responses, Scale};
+use super::stats::anova::{AnovaTable, SsType, two_way};
+use super::stats::binomial::{Alternative, binomial_test};
+use super::stats::classification::ConfusionMatrix;
+use super::stats::hit_rate::unbiased_hit_rates;
+use super::stats::reliability::cronbach_alpha;
+use super::stats::ttest::{TTest, student_t, welch_t};
+
+pub const CONVENTION: &str = "Conditions: media x peak intensity in whole percent. Labels: EmFACS labels (non-neutral alphabetically, then neutral) plus none; chance = 1/options. Confusion: rows = shown emotion, columns = chosen label, percent = row percent. Recognition rate = hits/answers per shown emotion; average rate = unweighted mean over shown emotions; accuracy = hits/all answers. Hu: Wagner (1993). Binomial: exact one-sided (greater) vs chance, Clopper-Pearson 95% CI. Ratings: mean and sample SD (n-1) over all ratings of a cell. Cronbach's alpha: participants = items, stimuli = cases, complete cases only (participants who rated every stimulus of the cell). Group comparisons: per-participant proportion correct or mean rating; Student (pooled) and Welch t, two-sided, Cohen's d with pooled SD, 95% CI of the difference. ANOVA: per media, emotion x intensity, between-subjects, per answer (recognition 1/0) or per rating, Type II and Type III SS, sum-to-zero contrasts.";
+
+/// A confusion matrix in counts and row percent.
+#[derive(Debug, Clone, Serialize)]
+pub struct Confusion {
+    /// Shown emotions (rows).
+    pub rows: Vec<String>,
+    /// Answer options (columns).
+    pub columns: Vec<String>,
+    pub counts: Vec<Vec<u64>>,
+    pub percent: Vec<Vec<f64>>,
+}
+
+/// Mean and SD of some ratings.
+#[derive(Debug, Clone, Serialize)]
+pub struct Describe {
+    pub n: usize,
+    pub mean: f64,
+    /// Sample SD (n − 1); `None` for a single rating.
+    pub sd: Option<f64>,
+}
+
+fn describe(x: &[f64]) -> Option<Describe> {
+    if x.is_empty() {
+        return None;
+    }
+    let n = x.len() as f64;
+    let mean = x.iter().sum::<f64>() / n;
+    let sd = (x.len() > 1).then(|| (x.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt());
+    Some(Describe { n: x.len(), mean, sd })
+}
+
+/// One shown emotion in one condition.
+#[derive(Debug, Clone, Serialize)]
+pub struct EmotionRow {
+    pub emotion: String,
+    pub stimuli: usize,
+    pub answers: u64,
+    pub hits: u64,
+    pub rate: f64,
+    pub hu: f64,
+    pub hu_chance: f64,
+    pub binomial_p: f64,
+    pub rate_ci95: (f64, f64),
+}
+
+/// One rating scale in one condition × emotion cell (Tables 11, 13).
+#[derive(Debug, Clone, Serialize)]
+pub struct ScaleCell {
+    pub emotion: String,
+    pub stats: Option<Describe>,
+    pub alpha: Maybe,
+    pub alpha_cases: usize,
+    pub alpha_items: usize,
+}
+
+/// A rating scale in one condition.
+#[derive(Debug, Clone, Serialize)]
+pub struct ScaleSummary {
+    pub scale: Scale,
+    pub overall: Option<Describe>,
+    pub alpha: Maybe,
+    pub alpha_cases: usize,
+    pub alpha_items: usize,
+    pub cells: Vec<ScaleCell>,
+}
+
+/// One stimulus group (media × intensity).
+#[derive(Debug, Clone, Serialize)]
+pub struct Condition {
+    pub key: String,
+    pub media: Media,
+    pub intensity_percent: u32,
+    pub stimuli: usize,
+    pub participants: usize,
+    pub answers: u64,
+    pub confusion: Option<Confusion>,
+    pub emotions: Vec<EmotionRow>,
+    pub average_rate: Option<f64>,
+    pub accuracy: Option<f64>,
+    pub scales: Vec<ScaleSummary>,
+}
+
+/// A t-test between two groups on one outcome.
+#[derive(Debug, Clone, Serialize)]
+pub struct GroupTest {
+    pub condition: String,
+    /// `all` or an emotion label.
+    pub emotion: String,
+    pub outcome: String,
+    pub group_a: String,
+    pub group_b: String,
+    pub a: Option<Describe>,
+    pub b: Option<Describe>,
+    pub student: Result<TTest, String>,
+    pub welch: Result<TTest, String>,
+}
+
+/// A two-way ANOVA of one outcome within one media.
+#[derive(Debug, Clone, Serialize)]
+pub struct Anova {
+    pub media: Media,
+    pub outcome: String,
+    /// Factor A.
+    pub a: &'static str,
+    /// Factor B.
+    pub b: &'static str,
+    pub n: usize,
+    pub type_ii: Result<AnovaTable, String>,
+    pub type_iii: Result<AnovaTable, String>,
+}
+
+/// Published figures beside ours (Table 14).
+#[derive(Debug, Clone, Serialize)]
+pub struct ComparisonRow {
+    pub emotion: String,
+    pub intensity_percent: u32,
+    /// This study, image stimuli.
+    pub recognition_percent: Option<f64>,
+    pub believability: Option<f64>,
+    /// system → (recognition %, believability).
+    pub published: BTreeMap<String, (f64, f64)>,
+}
+
+/// Everything the rater section of the report holds.
+#[derive(Debug, Clone, Serialize)]
+pub struct RatingReport {
+    pub convention: String,
+    pub labels: Vec<String>,
+    pub chance: f64,
+    pub conditions: Vec<Condition>,
+    pub group_tests: Vec<GroupTest>,
+    pub anova: Vec<Anova>,
+    pub table14: Vec<ComparisonRow>,
+}
+
+/// The answer options in display order: non-neutral emotions alphabetically, neutral, none.
+fn display_labels(responses: &Responses) -> Vec<String> {
+    let mut labels: Vec<String> = responses.emotion_labels.iter().filter(|l| *l != "neutral" && *l != "none").cloned().collect();
+    labels.sort();
+    if responses.label("neutral").is_some() {
+        labels.push("neutral".into());
+    }
+    labels.push("none".into());
+    labels
+}
+
+type CondKey = (Media, u32);
+
+fn cond_name(k: CondKey) -> String {
+    format!("{} {}%", k.0.label(), k.1)
+}
+
+fn ttests(a: &[f64], b: &[f64]) -> (Result<TTest, String>, Result<TTest, String>) {
+    let e = |r: Result<TTest, super::stats::StatsError>| r.map_err(|e| e.to_string());
+    (e(student_t(a, b, 0.95)), e(welch_t(a, b, 0.95)))
+}
+
+/// Published Table 14 figures (emotion, system, intensity %, recognition %, believability).
+pub const PUBLISHED_TABLE14: &str = include_str!("../../analysis/published/table14.csv");
+
+fn published() -> Vec<(String, String, u32, f64, f64)> {
+    PUBLISHED_TABLE14
+        .lines()
+        .filter(|l| !l.starts_with('#') && !l.starts_with("emotion,") && !l.trim().is_empty())
+        .filter_map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            Some((f[0].to_string(), f[1].to_string(), f[2].parse().ok()?, f[3].parse().ok()?, f[4].parse().ok()?))
+        })
+        .collect()
+}
+
+/// Computes the rater section; `None` when there are no emotion answers and no ratings.
+pub fn analyze(manifest: &Manifest, responses: &Responses) -> Option<RatingReport> {
+    if responses.emotions.is_empty() && responses.ratings.is_empty() {
+        return None;
+    }
+    let labels = display_labels(responses);
+    let to_display: Vec<usize> = responses.emotion_labels.iter().map(|l| labels.iter().position(|x| x == l).expect("label")).collect();
+    let stim_label = |s: usize| -> Option<usize> {
+        let e = manifest.stimuli[s].emotion.as_deref()?;
+        labels.iter().position(|l| l == e)
+    };
+    let cond_of = |s: usize| -> CondKey { (manifest.stimuli[s].media, manifest.stimuli[s].intensity_percent()) };
+
+    let mut cond_keys: BTreeSet<CondKey> = BTreeSet::new();
+    for e in &responses.emotions {
+        cond_keys.insert(cond_of(e.stimulus));
+    }
+    for r in &responses.ratings {
+        cond_keys.insert(cond_of(r.stimulus));
+    }
+    // Videos first, then higher intensities first (the seed's table order).
+    let mut cond_keys: Vec<CondKey> = cond_keys.into_iter().collect();
+    cond_keys.sort_by(|a, b| b.0.cmp(&a.0).then(b.1.cmp(&a.1)));
+    let groups: Vec<usize> = (0..responses.groups.len()).collect();
+    let scales_present: BTreeSet<Scale> = responses.ratings.iter().map(|r| r.scale).collect();
+
+    let mut conditions = Vec::new();
+    let mut group_tests = Vec::new();
+    for &key in &cond_keys {
+        let stimuli: Vec<usize> = (0..manifest.len()).filter(|&s| cond_of(s) == key).collect();
+        let answers: Vec<_> = responses.emotions.iter().filter(|e| cond_of(e.stimulus) == key).collect();
+        let ratings: Vec<_> = responses.ratings.iter().filter(|r| cond_of(r.stimulus) == key).collect();
+        let participants: BTreeSet<usize> = answers.iter().map(|e| e.participant).chain(ratings.iter().map(|r| r.participant)).collect();
+
+        // Confusion over the full label set (square), rows restricted to shown emotions for display.
+        let mut counts = vec![vec![0u64; labels.len()]; labels.len()];
+        // Answers to stimuli that portray no emotion (empty `emotion` in the manifest) have no
+        // row to go in: they are left out of the confusion matrix.
+        for e in &answers {
+            if let Some(t) = stim_label(e.stimulus) {
+                counts[t][to_display[e.label]] += 1;
+            }
+        }
+        let cm = ConfusionMatrix::from_counts(labels.clone(), counts.clone()).expect("square by construction");
+        let hu = unbiased_hit_rates(&cm);
+        let shown: Vec<usize> = (0..labels.len()).filter(|&t| cm.row_sum(t) > 0).collect();
+        let mut emotions = Vec::new();
+        for &t in &shown {
+            let n = cm.row_sum(t);
+            let hits = counts[t][t];
+            let b = binomial_test(hits, n, 1.0 / labels.len() as f64, Alternative::Greater, 0.95).expect("n > 0");
+            emotions.push(EmotionRow {
+                emotion: labels[t].clone(),
+                stimuli: stimuli.iter().filter(|&&s| stim_label(s) == Some(t)).count(),
+                answers: n,
+                hits,
+                rate: hits as f64 / n as f64,
+                hu: hu[t].hu,
+                hu_chance: hu[t].chance,
+                binomial_p: b.p_value,
+                rate_ci95: b.ci,
+            });
+        }
+        let confusion = (!shown.is_empty()).then(|| Confusion {
+            rows: shown.iter().map(|&t| labels[t].clone()).collect(),
+            columns: labels.clone(),
+            counts: shown.iter().map(|&t| counts[t].clone()).collect(),
+            percent: shown
+                .iter()
+                .map(|&t| {
+                    let n = cm.row_sum(t) as f64;
+                    counts[t].iter().map(|&c| 100.0 * c as f64 / n).collect()
+                })
+                .collect(),
+        });
+        let total: u64 = shown.iter().map(|&t| cm.row_sum(t)).sum();
+        let hits: u64 = shown.iter().map(|&t| counts[t][t]).sum();
+        let average_rate = (!emotions.is_empty()).then(|| emotions.iter().map(|e| e.rate).sum::<f64>() / emotions.len() as f64);
+
+        // Ratings per scale.
+        let mut scales = Vec::new();
+        for &scale in &scales_present {
+            let these: Vec<_> = ratings.iter().filter(|r| r.scale == scale).collect();
+            if these.is_empty() {
+                continue;
+            }
+            // value[(participant, stimulus)]
+            let value: BTreeMap<(usize, usize), f64> = these.iter().map(|r| ((r.participant, r.stimulus), r.value)).collect();
+            let raters: BTreeSet<usize> = these.iter().map(|r| r.participant).collect();
+            let alpha_of = |cases: &[usize]| -> (Maybe, usize, usize) {
+                let items: Vec<usize> = raters.iter().copied().filter(|p| cases.iter().all(|s| value.contains_key(&(*p, *s)))).collect();
+                let rows: Vec<Vec<f64>> = cases.iter().map(|s| items.iter().map(|p| value[&(*p, *s)]).collect()).collect();
+                (Maybe::of(cronbach_alpha(&rows, 0.95).map(|a| a.alpha)), cases.len(), items.len())
+            };
+            let rated: Vec<usize> = stimuli.iter().copied().filter(|s| these.iter().any(|r| r.stimulus == *s)).collect();
+            let (alpha, alpha_cases, alpha_items) = alpha_of(&rated);
+            let mut cells = Vec::new();
+            for t in 0..labels.len() {
+                let cases: Vec<usize> = rated.iter().copied().filter(|&s| stim_label(s) == Some(t)).collect();
+                if cases.is_empty() {
+                    continue;
+                }
+                let vals: Vec<f64> = these.iter().filter(|r| stim_label(r.stimulus) == Some(t)).map(|r| r.value).collect();
+                let (alpha, alpha_cases, alpha_items) = alpha_of(&cases);
+                cells.push(ScaleCell { emotion: labels[t].clone(), stats: describe(&vals), alpha, alpha_cases, alpha_items });
+            }
+            let all: Vec<f64> = these.iter().map(|r| r.value).collect();
+            scales.push(ScaleSummary { scale, overall: describe(&all), alpha, alpha_cases, alpha_items, cells });
+        }
+
+        // Group comparisons within the condition, from per-participant tallies:
+        // per_participant[p][shown label] = (hits, answers); belv_sum[p] = (sum, n).
+        let mut per_participant: BTreeMap<usize, Vec<(u64, u64)>> = BTreeMap::new();
+        for e in &answers {
+            if let Some(t) = stim_label(e.stimulus) {
+                let v = per_participant.entry(e.participant).or_insert_with(|| vec![(0, 0); labels.len()]);
+                v[t].1 += 1;
+                if to_display[e.label] == t {
+                    v[t].0 += 1;
+                }
+            }
+        }
+        let mut belv_sum: BTreeMap<usize, (f64, u64)> = BTreeMap::new();
+        for r in ratings.iter().filter(|r| r.scale == Scale::Believability) {
+            let v = belv_sum.entry(r.participant).or_default();
+            v.0 += r.value;
+            v.1 += 1;
+        }
+        for (i, &ga) in groups.iter().enumerate() {
+            for &gb in &groups[i + 1..] {
+                let in_group = |g: usize| -> Vec<usize> { participants.iter().copied().filter(|&p| responses.participants[p].group == g).collect() };
+                let (pa, pb) = (in_group(ga), in_group(gb));
+                if pa.is_empty() || pb.is_empty() {
+                    continue;
+                }
+                let correct_rate = |p: usize, t: Option<usize>| -> Option<f64> {
+                    let (hits, n) = match t {
+                        None => per_participant.get(&p).map(|v| v.iter().fold((0, 0), |acc, x| (acc.0 + x.0, acc.1 + x.1)))?,
+                        Some(t) => per_participant.get(&p)?[t],
+                    };
+                    (n > 0).then(|| hits as f64 / n as f64)
+                };
+                let mut push = |emotion: String, outcome: &str, a: Vec<f64>, b: Vec<f64>| {
+                    if a.is_empty() || b.is_empty() {
+                        return;
+                    }
+                    let (student, welch) = ttests(&a, &b);
+                    group_tests.push(GroupTest {
+                        condition: cond_name(key),
+                        emotion,
+                        outcome: outcome.into(),
+                        group_a: responses.groups[ga].clone(),
+                        group_b: responses.groups[gb].clone(),
+                        a: describe(&a),
+                        b: describe(&b),
+                        student,
+                        welch,
+                    });
+                };
+                let rec = |ps: &[usize], t: Option<usize>| -> Vec<f64> { ps.iter().filter_map(|&p| correct_rate(p, t)).collect() };
+                if !answers.is_empty() {
+                    push("all".into(), "recognition (proportion correct)", rec(&pa, None), rec(&pb, None));
+                }
+                let mean_belv = |ps: &[usize]| -> Vec<f64> {
+                    ps.iter().filter_map(|p| belv_sum.get(p).map(|(sum, n)| sum / *n as f64)).collect()
+                };
+                if scales_present.contains(&Scale::Believability) {
+                    push("all".into(), "believability (participant mean)", mean_belv(&pa), mean_belv(&pb));
+                }
+                for &t in &shown {
+                    push(labels[t].clone(), "recognition (proportion correct)", rec(&pa, Some(t)), rec(&pb, Some(t)));
+                }
+            }
+        }
+
+        conditions.push(Condition {
+            key: cond_name(key),
+            media: key.0,
+            intensity_percent: key.1,
+            stimuli: stimuli.len(),
+            participants: participants.len(),
+            answers: total,
+            confusion,
+            emotions,
+            average_rate,
+            accuracy: (total > 0).then(|| hits as f64 / total as f64),
+            scales,
+        });
+    }
+
+    // Two-way ANOVA per media: emotion × intensity.
+    let mut anova = Vec::new();
+    for media in [Media::Video, Media::Image] {
+        let mut fit = |outcome: &str, a: Vec<String>, b: Vec<String>, y: Vec<f64>| {
+            if y.is_empty() {
+                return;
+            }
+            let run = |t| two_way(&a, &b, &y, t).map_err(|e| e.to_string());
+            anova.push(Anova { media, outcome: outcome.into(), a: "emotion", b: "intensity", n: y.len(), type_ii: run(SsType::II), type_iii: run(SsType::III) });
+        };
+        let (mut a, mut b, mut y) = (Vec::new(), Vec::new(), Vec::new());
+        for e in responses.emotions.iter().filter(|e| manifest.stimuli[e.stimulus].media == media) {
+            if let Some(t) = stim_label(e.stimulus) {
+                a.push(labels[t].clone());
+                b.push(format!("{}%", manifest.stimuli[e.stimulus].intensity_percent()));
+                y.push(if t == to_display[e.label] { 1.0 } else { 0.0 });
+            }
+        }
+        fit("recognition", a, b, y);
+        let (mut a, mut b, mut y) = (Vec::new(), Vec::new(), Vec::new());
+        for r in responses.ratings.iter().filter(|r| r.scale == Scale::Believability && manifest.stimuli[r.stimulus].media == media) {
+            if let Some(t) = stim_label(r.stimulus) {
+                a.push(labels[t].clone());
+                b.push(format!("{}%", manifest.stimuli[r.stimulus].intensity_percent()));
+                y.push(r.value);
+            }
+        }
+        fit("believability", a, b, y);
+    }
+
+    // Table 14: this study's image conditions beside the published figures.
+    let mut table14 = Vec::new();
+    let pubs = published();
+    for c in conditions.iter().filter(|c| c.media == Media::Image) {
+        for e in &c.emotions {
+            let belv = c
+                .scales
+                .iter()
+                .find(|s| s.scale == Scale::Believability)
+                .and_then(|s| s.cells.iter().find(|x| x.emotion == e.emotion))
+                .and_then(|x| x.stats.as_ref().map(|d| d.mean));
+            let published = pubs
+                .iter()
+                .filter(|p| p.0 == e.emotion && p.2 == c.intensity_percent)
+                .map(|p| (p.1.clone(), (p.3, p.4)))
+                .collect();
+            table14.push(ComparisonRow {
+                emotion: e.emotion.clone(),
+                intensity_percent: c.intensity_percent,
+                recognition_percent: Some(100.0 * e.rate),
+                believability: belv,
+                published,
+            });
+        }
+    }
+
+    Some(RatingReport {
+        convention: CONVENTION.to_string(),
+        chance: 1.0 / labels.len() as f64,
+        labels,
+        conditions,
+        group_tests,
+        anova,
+        table14,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::facs::{Catalog, EmotionTable};
+
+    fn run(manifest: &str, responses: &str) -> RatingReport {
+        let (catalog, emotions) = (Catalog::built_in(), EmotionTable::built_in());
+        let m = Manifest::from_csv("m.csv", &format!("stimulus_id,media,identity,expression,emotion,intensity\n{manifest}"), catalog, &emotions).unwrap();
+        let r = Responses::from_csv(
+            "r.csv",
+            &format!("participant_id,group,stimulus_id,trial,measure,value,rt_ms\n{responses}"),
+            &m,
+            catalog,
+            &emotions,
+        )
+        .unwrap();
+        analyze(&m, &r).unwrap()
+    }
+
+    #[test]
+    fn confusion_rates_and_alpha_by_hand() {
+        // Two stimuli in one condition, three raters.
+        let m = "h,image,wm1,6+12+25,happiness,1\ns,image,wm1,1+4+15,sadness,1\n";
+        let r = "p1,g,h,1,emotion,happiness,\np2,g,h,1,emotion,happiness,\np3,g,h,1,emotion,pride,\n\
+                 p1,g,s,2,emotion,sadness,\np2,g,s,2,emotion,none,\np3,g,s,2,emotion,sadness,\n\
+                 p1,g,h,1,believability,4,\np2,g,h,1,believability,5,\np3,g,h,1,believability,3,\n\
+                 p1,g,s,2,believability,2,\np2,g,s,2,believability,4,\np3,g,s,2,believability,1,\n";
+        let rep = run(m, r);
+        assert_eq!(rep.labels.len(), 11);
+        assert_eq!(rep.labels[9], "neutral");
+        assert_eq!(rep.labels[10], "none");
+        let c = &rep.conditions[0];
+        assert_eq!(c.key, "image 100%");
+        let conf = c.confusion.as_ref().unwrap();
+        assert_eq!(conf.rows, ["happiness", "sadness"]);
+        let happy = &c.emotions[0];
+        assert_eq!((happy.hits, happy.answers), (2, 3));
+        // Hu(happiness) = 2² / (3 · 2) (column "happiness" chosen twice).
+        assert!((happy.hu - 4.0 / 6.0).abs() < 1e-12);
+        assert!((c.average_rate.unwrap() - 2.0 / 3.0).abs() < 1e-12);
+        let pct = &conf.percent[0];
+        assert!((pct.iter().sum::<f64>() - 100.0).abs() < 1e-9);
+        // α: cases = stimuli (h, s), items = p1..p3: rows (4,5,3), (2,4,1).
+        // item variances 2, 0.5, 2 (sum 4.5); totals 12, 7 -> variance 12.5; α = 1.5 (1 − 4.5/12.5) = 0.96.
+        let belv = &c.scales[0];
+        assert!((belv.alpha.value.unwrap() - 0.96).abs() < 1e-12);
+        assert_eq!(belv.overall.as_ref().unwrap().n, 6);
+    }
+
+    #[test]
+    fn published_table14_parses() {
+        let p = published();
+        assert_eq!(p.len(), 38);
+        assert!(p.iter().any(|r| r.0 == "anger" && r.1 == "FACSGen" && r.2 == 100 && (r.3 - 87.82).abs() < 1e-9));
+    }
+}

@@ -1,0 +1,177 @@
+//! `facslab simulate` then `facslab analyze`: the report's files, its structure (snapshots shaped
+//! like the seed's Tables 1–4 and 6–11), determinism, and bad input.
+
+use std::path::Path;
+
+use serde_json::{Value, json};
+
+use crate::cli::{facslab, facslab_ok, stderr};
+
+fn simulate_and_analyze(dir: &Path, design: &str, extra: &[&str]) -> Value {
+    let mut args = vec!["simulate", "--design", design, "--seed", "11", "-o", "sim"];
+    args.extend_from_slice(extra);
+    facslab_ok(dir, &args);
+    facslab_ok(dir, &["analyze", "--responses", "sim/responses.csv", "--manifest", "sim/manifest.csv", "-o", "report"]);
+    serde_json::from_str(&std::fs::read_to_string(dir.join("report/report.json")).unwrap()).unwrap()
+}
+
+/// Rounds every number to 6 decimals so snapshots do not depend on the last bits of libm.
+fn round(v: &Value) -> Value {
+    match v {
+        Value::Number(n) if n.is_f64() => json!((n.as_f64().unwrap() * 1e6).round() / 1e6),
+        Value::Array(a) => Value::Array(a.iter().map(round).collect()),
+        Value::Object(o) => Value::Object(o.iter().map(|(k, v)| (k.clone(), round(v))).collect()),
+        other => other.clone(),
+    }
+}
+
+fn pick(v: &Value, keys: &[&str]) -> Value {
+    Value::Object(keys.iter().map(|k| (k.to_string(), v[*k].clone())).collect())
+}
+
+#[test]
+fn exp1_report_has_tables_1_and_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let report = simulate_and_analyze(dir.path(), "exp1", &[]);
+    for file in ["report.html", "table1_3_per_au.csv", "table1_grouped.csv", "table2_alpha.csv", "coder_agreement.csv", "table6_demographics.csv", "plot_f1_per_au.png"] {
+        assert!(dir.path().join("report").join(file).exists(), "{file} missing");
+    }
+    let coding = &report["coding"];
+    assert_eq!(coding["coders"].as_array().unwrap().len(), 3);
+    assert_eq!(coding["stimuli"], 49);
+    let table2: Vec<Value> = coding["per_au"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|r| r["shown_in"].as_u64() > Some(0))
+        .map(|r| pick(r, &["au", "alpha", "mistaken_for"]))
+        .collect();
+    insta::assert_json_snapshot!("exp1_tables_1_2", round(&json!({
+        "table1": coding["table1_groups"],
+        "table2": table2,
+        "macro_mean": coding["macro_mean"],
+        "micro": coding["micro"],
+    })));
+}
+
+#[test]
+fn exp2_report_has_tables_3_and_4() {
+    let dir = tempfile::tempdir().unwrap();
+    let report = simulate_and_analyze(dir.path(), "exp2", &[]);
+    let coding = &report["coding"];
+    assert_eq!(coding["combinations"].as_array().unwrap().len(), 54);
+    let table3: Vec<Value> = coding["per_au"].as_array().unwrap().iter().map(|r| pick(r, &["au", "counts", "metrics"])).collect();
+    let table4: Vec<Value> =
+        coding["combinations"].as_array().unwrap().iter().map(|r| pick(r, &["combination", "recognised_display", "metrics"])).collect();
+    insta::assert_json_snapshot!("exp2_tables_3_4", round(&json!({
+        "table3": table3,
+        "table4": table4,
+        "table4_mean": coding["combinations_macro_mean"],
+        "agreement": coding["agreement"],
+    })));
+    let html = std::fs::read_to_string(dir.path().join("report/report.html")).unwrap();
+    assert!(html.contains("Table 4. AU combinations"));
+}
+
+#[test]
+fn exp3_report_has_tables_6_to_11() {
+    let dir = tempfile::tempdir().unwrap();
+    let report = simulate_and_analyze(dir.path(), "exp3", &["--participants", "12", "--missing", "0.01"]);
+    let rating = &report["rating"];
+    let conditions = rating["conditions"].as_array().unwrap();
+    let keys: Vec<&str> = conditions.iter().map(|c| c["key"].as_str().unwrap()).collect();
+    assert_eq!(keys, ["video 100%", "video 50%", "image 100%", "image 50%"]);
+    for file in ["confusion_video_100_percent.csv", "plot_confusion_image_50.png", "plot_believability.png", "table11_ratings.csv", "anova.csv", "group_tests.csv", "table14_comparison.csv"] {
+        assert!(dir.path().join("report").join(file).exists(), "{file} missing");
+    }
+    // Every statistic in the rater section states its convention.
+    assert!(rating["convention"].as_str().unwrap().contains("Type II and Type III"));
+    let tables_7_10: Vec<Value> = conditions.iter().map(|c| pick(c, &["key", "confusion", "average_rate"])).collect();
+    let table11: Vec<Value> = conditions
+        .iter()
+        .map(|c| {
+            let s = &c["scales"][0];
+            json!({"condition": c["key"], "cells": s["cells"], "overall": s["overall"], "alpha": s["alpha"]})
+        })
+        .collect();
+    insta::assert_json_snapshot!("exp3_tables_6_to_11", round(&json!({
+        "table6": report["demographics"]["rows"],
+        "tables_7_10": tables_7_10,
+        "table11": table11,
+    })));
+    // Two groups: Student and Welch tests with df, p and d per condition.
+    let t = &rating["group_tests"][0];
+    assert!(t["student"]["Ok"]["df"].is_number() && t["welch"]["Ok"]["cohen_d"].is_number(), "{t}");
+    assert_eq!(rating["anova"].as_array().unwrap().len(), 4);
+}
+
+#[test]
+fn same_seed_gives_identical_files() {
+    let dir = tempfile::tempdir().unwrap();
+    for out in ["a", "b"] {
+        facslab_ok(dir.path(), &["simulate", "--design", "exp3", "--seed", "5", "--participants", "3", "-o", out]);
+    }
+    for f in ["manifest.csv", "responses.csv"] {
+        assert_eq!(std::fs::read(dir.path().join("a").join(f)).unwrap(), std::fs::read(dir.path().join("b").join(f)).unwrap());
+    }
+}
+
+/// Runs analyze on a broken response file and checks the message and that nothing was written.
+fn bad_responses(body: &str, expect: &[&str]) {
+    let dir = tempfile::tempdir().unwrap();
+    facslab_ok(dir.path(), &["simulate", "--design", "exp1", "-o", "sim"]);
+    let manifest = std::fs::read_to_string(dir.path().join("sim/manifest.csv")).unwrap();
+    let id = manifest.lines().nth(1).unwrap().split(',').next().unwrap().to_string();
+    std::fs::write(dir.path().join("bad.csv"), body.replace("ID", &id)).unwrap();
+    let out = facslab(dir.path(), &["analyze", "--responses", "bad.csv", "--manifest", "sim/manifest.csv", "-o", "report"]);
+    assert!(!out.status.success());
+    let err = stderr(&out);
+    for e in expect {
+        assert!(err.contains(e), "expected {e:?} in: {err}");
+    }
+    assert!(!dir.path().join("report").exists(), "a partial report was written");
+    assert!(!dir.path().join(".report.partial").exists(), "a staging directory was left");
+}
+
+const HEADER: &str = "participant_id,group,stimulus_id,trial,measure,value,rt_ms\n";
+
+#[test]
+fn unknown_stimulus_id_names_row_and_column() {
+    bad_responses(&format!("{HEADER}c1,g,ID,1,aus,1,\nc1,g,nope,2,aus,1,\n"), &["bad.csv: row 2 (line 3), column \"stimulus_id\"", "unknown stimulus id \"nope\""]);
+}
+
+#[test]
+fn unknown_au_names_row_and_column() {
+    bad_responses(&format!("{HEADER}c1,g,ID,1,aus,1+2+99,\n"), &["row 1 (line 2), column \"value\"", "AU 99 is not in the catalog"]);
+}
+
+#[test]
+fn likert_out_of_range_names_row_and_column() {
+    bad_responses(&format!("{HEADER}p1,g,ID,1,believability,3,\np1,g,ID,1,q1,9,\n"), &["row 2 (line 3), column \"value\"", "outside the scale 1-7"]);
+}
+
+#[test]
+fn empty_group_names_row_and_column() {
+    bad_responses(&format!("{HEADER}p1,g,ID,1,emotion,fear,\np2,,ID,1,emotion,fear,\n"), &["row 2 (line 3), column \"group\": empty group"]);
+}
+
+#[test]
+fn missing_column_is_named() {
+    bad_responses("participant_id,group,stimulus_id,trial,value,rt_ms\np1,g,ID,1,3,\n", &["missing column \"measure\""]);
+}
+
+#[test]
+fn refuses_to_replace_a_directory_that_is_not_a_report() {
+    let dir = tempfile::tempdir().unwrap();
+    facslab_ok(dir.path(), &["simulate", "--design", "exp1", "-o", "sim"]);
+    std::fs::create_dir(dir.path().join("keep")).unwrap();
+    std::fs::write(dir.path().join("keep/notes.txt"), "mine").unwrap();
+    let out = facslab(dir.path(), &["analyze", "--responses", "sim/responses.csv", "--manifest", "sim/manifest.csv", "-o", "keep"]);
+    assert!(!out.status.success());
+    assert_eq!(std::fs::read_to_string(dir.path().join("keep/notes.txt")).unwrap(), "mine");
+    // An earlier report is replaced.
+    facslab_ok(dir.path(), &["analyze", "--responses", "sim/responses.csv", "--manifest", "sim/manifest.csv", "-o", "r"]);
+    facslab_ok(dir.path(), &["analyze", "--responses", "sim/responses.csv", "--manifest", "sim/manifest.csv", "-o", "r", "--match-side"]);
+    let json = std::fs::read_to_string(dir.path().join("r/report.json")).unwrap();
+    assert!(json.contains("\"match_side\": true"));
+}
