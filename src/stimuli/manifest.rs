@@ -46,8 +46,8 @@ pub struct ManifestRow {
     /// Path relative to the set directory (`media/<id>.png` or `media/<id>.mp4`).
     pub file: String,
     pub identity: String,
-    /// FACS notation at the peak, with intensities and sides; CPT sequences list their steps in
-    /// order separated by " ; ".
+    /// FACS notation at the peak, with intensities and sides; a CPT sequence gives every AU of
+    /// its steps once, at its highest intensity (order and timing: timeline and ground truth).
     pub expression: String,
     /// Emotion label (or CPT check name); empty for AU stimuli.
     pub emotion: String,

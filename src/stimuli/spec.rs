@@ -109,7 +109,8 @@ pub struct Entry {
     pub origin: String,
     pub identity: String,
     pub content: Content,
-    /// FACS notation at the peak; a CPT sequence lists its steps in order separated by " ; ".
+    /// FACS notation at the peak; for a CPT sequence, every AU of its steps (each once, at its
+    /// highest intensity): the order and timing are in the timeline and the ground truth.
     pub expression: String,
     /// Emotion label or CPT check name; empty for AU stimuli.
     pub emotion: String,
@@ -209,7 +210,7 @@ impl SetSpec {
                             origin: format!("{item_name}, video at {peak}, {identity}"),
                             identity: identity.clone(),
                             content: Content::Video { timeline, timing },
-                            expression: steps.iter().map(|s| s.to_string()).collect::<Vec<_>>().join(" ; "),
+                            expression: union(&steps, catalog).map_err(|e| fail(&item_name, e.to_string()))?.to_string(),
                             emotion: item.emotion.clone(),
                             intensity: peak,
                         });
@@ -256,6 +257,26 @@ impl SetSpec {
             })
             .sum()
     }
+}
+
+/// Every AU of `steps`, each once (first appearance order, highest intensity; an AU shown on
+/// different sides in different steps becomes bilateral).
+fn union(steps: &[Expression], catalog: &Catalog) -> Result<Expression, crate::facs::NotationError> {
+    use crate::facs::{Activation, Intensity, Laterality};
+    let mut out: Vec<Activation> = Vec::new();
+    for activation in steps.iter().flat_map(|s| s.activations()) {
+        match out.iter_mut().find(|a| a.au == activation.au) {
+            Some(kept) => {
+                if kept.side != activation.side {
+                    kept.side = Laterality::Both;
+                }
+                let strongest = kept.strength().max(activation.strength());
+                kept.intensity = Some(Intensity::Fraction(strongest));
+            }
+            None => out.push(*activation),
+        }
+    }
+    Expression::from_activations(out, catalog)
 }
 
 fn check_timing(t: &ClipTiming) -> Result<(), String> {
@@ -390,7 +411,13 @@ mod tests {
         assert_eq!((s.entries[0].emotion.as_str(), s.entries[0].intensity), ("happiness", 0.5));
         assert_eq!(s.entries[1].expression, "6@1+12@1+25@1");
         let s = spec("[[group]]\nname = \"c\"\ncpt = [\"novelty\"]\nvideo_peaks = [1.0]\n").unwrap();
-        assert_eq!(s.entries[0].expression, "1@1+2@1+5@1 ; 4@1+7@1+26@1+38@1");
+        assert_eq!(s.entries[0].expression, "1@1+2@1+5@1+4@1+7@1+26@1+38@1");
+        let s = spec("[[group]]\nname = \"c\"\ncpt = \"all\"\nvideo_peaks = [0.5]\n").unwrap();
+        let high_power = s.entries.iter().find(|e| e.emotion == "control_high_power").unwrap();
+        assert_eq!(high_power.expression, "4@0.5+5@0.5+7@0.5+23@0.5+25@0.5+24@0.5+38@0.5");
+        for entry in &s.entries {
+            Catalog::built_in().parse(&entry.expression).unwrap_or_else(|e| panic!("{}: {e}", entry.emotion));
+        }
         let s = spec("[[group]]\nname = \"x\"\nexpressions = [\"12\"]\nstills = [0.5]\nidentity = \"each\"\n").unwrap();
         assert_eq!(s.entries.len(), 8);
     }
