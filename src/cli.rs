@@ -11,7 +11,19 @@ use crate::engine::identity::{Identity, IdentityTable};
 use crate::engine::image::RgbImage;
 use crate::engine::sheet::ContactSheet;
 use crate::engine::{self, FrameSettings};
+use crate::engine::timeline::{ClipTiming, Ramp, Timeline};
 use crate::facs::{Catalog, EmotionTable, Expression};
+use crate::stimuli::{self, SetSpec};
+
+impl From<RampArg> for Ramp {
+    fn from(ramp: RampArg) -> Ramp {
+        match ramp {
+            RampArg::Linear => Ramp::Linear,
+            RampArg::Smoothstep => Ramp::Smoothstep,
+            RampArg::Cosine => Ramp::Cosine,
+        }
+    }
+}
 
 #[derive(Parser)]
 #[command(name = "facslab", version, about = "FACS-controlled facial-expression stimuli, studies and validation reports")]
@@ -30,23 +42,57 @@ enum Command {
     #[command(after_help = "Example:\n  facslab identities")]
     Identities,
 
-    /// Render one expression as a PNG still.
-    #[command(after_help = "Examples:\n  facslab render 1+2+5B+26 --identity wf1 -o surprise.png\n  facslab render L12C+R14 --identity bm2 -o smirk.png --size 970x960\n  facslab render 12@0.42 -o faint-smile.png\n\nFACS notation: AUs joined by '+'; L/R prefix = one side; A-E suffix = intensity\n(15/30/55/85/100 %), or @x for a fraction in [0, 1]; no suffix = E; 0 = neutral.")]
+    /// Render one expression as a PNG still, or as an MP4 video (HapFACS clip or a timeline file).
+    #[command(after_help = "Examples:\n  facslab render 1+2+5B+26 --identity wf1 -o surprise.png\n  facslab render L12C+R14 --identity bm2 -o smirk.png --size 970x960\n  facslab render 12@0.42 -o faint-smile.png\n  facslab render 6+12 --video -o smile.mp4                      # 1 s onset, 1 s apex, 1 s offset, 30 fps\n  facslab render 6+12 --video --onset 0.5 --ramp cosine -o smile.mp4 --export-timeline smile.json\n  facslab render --timeline smile.json -o smile.mp4 --frames smile-frames --poster smile.png\n\nFACS notation: AUs joined by '+'; L/R prefix = one side; A-E suffix = intensity\n(15/30/55/85/100 %), or @x for a fraction in [0, 1]; no suffix = E; 0 = neutral.\nVideos are H.264 in MP4, BT.601-tagged; an odd width or height is padded to even (485x480 -> 486x480).")]
     Render {
-        /// The expression in FACS notation, e.g. "1+2+4B+L12C".
-        expression: String,
-        /// Who shows it (see `facslab identities`).
-        #[arg(long, default_value = "wm1")]
-        identity: String,
-        /// Output PNG file.
+        /// The expression in FACS notation, e.g. "1+2+4B+L12C" (not with --timeline).
+        #[arg(required_unless_present = "timeline")]
+        expression: Option<String>,
+        /// Who shows it (see `facslab identities`) [default: wm1].
+        #[arg(long)]
+        identity: Option<String>,
+        /// Output file: .png for a still, .mp4 for a video.
         #[arg(short, long)]
         output: PathBuf,
-        /// Image size as WIDTHxHEIGHT.
-        #[arg(long, default_value = "485x480", value_parser = parse_size)]
-        size: (u32, u32),
+        /// Image size as WIDTHxHEIGHT [default: 485x480].
+        #[arg(long, value_parser = parse_size)]
+        size: Option<(u32, u32)>,
         /// Rendering threads (default: all cores; the image is the same either way).
         #[arg(long)]
         threads: Option<usize>,
+        /// Render a video of EXPRESSION: 0 -> peak over --onset, held for --apex, back over --offset.
+        #[arg(long, conflicts_with = "timeline")]
+        video: bool,
+        /// Render the video described by a timeline JSON file (identity and size come from the file).
+        #[arg(long, conflicts_with_all = ["expression", "identity", "size"])]
+        timeline: Option<PathBuf>,
+        /// Onset duration in seconds (with --video).
+        #[arg(long, default_value_t = 1.0, requires = "video")]
+        onset: f64,
+        /// Apex duration in seconds (with --video).
+        #[arg(long, default_value_t = 1.0, requires = "video")]
+        apex: f64,
+        /// Offset duration in seconds (with --video).
+        #[arg(long, default_value_t = 1.0, requires = "video")]
+        offset: f64,
+        /// Frames per second (with --video).
+        #[arg(long, default_value_t = 30, requires = "video")]
+        fps: u32,
+        /// Ramp shape of onset and offset (with --video): linear (HapFACS), smoothstep or cosine.
+        #[arg(long, value_enum, default_value = "linear", requires = "video")]
+        ramp: RampArg,
+        /// Also write the timeline used to this JSON file (render it again with --timeline).
+        #[arg(long)]
+        export_timeline: Option<PathBuf>,
+        /// Also write every frame as PNG into this directory (000000.png, 000001.png, ...).
+        #[arg(long)]
+        frames: Option<PathBuf>,
+        /// Also write the first frame as a poster PNG.
+        #[arg(long)]
+        poster: Option<PathBuf>,
+        /// Video codec: h264 (default) or av1 (the fallback; needs the `av1` cargo feature).
+        #[arg(long, value_enum, default_value = "h264")]
+        codec: CodecArg,
     },
 
     /// Render a labelled contact sheet for a visual audit.
@@ -69,6 +115,10 @@ enum Command {
         columns: u32,
     },
 
+    /// Build and check stimulus sets (specs in stimuli/sets/).
+    #[command(subcommand)]
+    Stimuli(StimuliCommand),
+
     /// Compute the validation report from responses and the stimulus manifest.
     #[command(after_help = "Examples:\n  facslab analyze --responses responses.csv --manifest manifest.csv -o report\n  facslab analyze --responses r.csv --manifest m.csv -o strict --match-side --match-intensity\n\nWrites report.json (every number), report.html (tables and plots), one CSV per table and\nthe plots as PNG files. Inputs are validated in full first; on any error nothing is written.")]
     Analyze(crate::analysis::cli::AnalyzeArgs),
@@ -76,6 +126,41 @@ enum Command {
     /// Write synthetic responses and a manifest shaped like one of the seed's experiments.
     #[command(after_help = "Examples:\n  facslab simulate --design exp1 --seed 1 -o sim1           # 3 coders, 49 single AUs\n  facslab simulate --design exp2 --accuracy 0.8 -o sim2       # 54 AU combinations\n  facslab simulate --design exp3 --participants 40 --groups local,amt --missing 0.02 -o sim3\n\nWrites DIR/responses.csv and DIR/manifest.csv; the same options give the same bytes.")]
     Simulate(crate::analysis::cli::SimulateArgs),
+}
+
+#[derive(Subcommand)]
+enum StimuliCommand {
+    /// Render a stimulus set: media with opaque names, manifest.csv/json, per-frame ground truth.
+    #[command(after_help = "Examples:\n  facslab stimuli build stimuli/sets/demo.toml -o demo-set\n  facslab stimuli build stimuli/sets/exp1.toml -o exp1 --jobs 2\n\nThe spec is validated completely before anything renders. Files already up to date\n(same manifest row, same sha256 on disk) are kept. Output layout: manifest.csv,\nmanifest.json, media/<id>.png|mp4, posters/, ground_truth/<id>.csv, timelines/<id>.json.")]
+    Build {
+        /// The set specification (TOML).
+        spec: PathBuf,
+        /// Output directory (created if needed).
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Worker threads (default: all cores).
+        #[arg(long)]
+        jobs: Option<usize>,
+    },
+    /// Validate a set specification and count its stimuli and frames, without rendering.
+    #[command(after_help = "Example:\n  facslab stimuli check stimuli/sets/exp2.toml")]
+    Check {
+        /// The set specification (TOML).
+        spec: PathBuf,
+    },
+}
+
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
+enum CodecArg {
+    H264,
+    Av1,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum RampArg {
+    Linear,
+    Smoothstep,
+    Cosine,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -123,13 +208,92 @@ fn dispatch(command: Command) -> anyhow::Result<()> {
             }
             Ok(())
         }
-        Command::Render { expression, identity, output, size, threads } => {
-            let expression = Catalog::built_in().parse(&expression)?;
-            let identity = IdentityTable::built_in().get(&identity)?;
-            check_png_path(&output)?;
-            let settings = FrameSettings { width: size.0, height: size.1, threads };
-            let image = engine::render_still(&expression, identity, settings)?;
-            write_png(&image, &output)
+        Command::Render {
+            expression,
+            identity,
+            output,
+            size,
+            threads,
+            video,
+            timeline,
+            onset,
+            apex,
+            offset,
+            fps,
+            ramp,
+            export_timeline,
+            frames,
+            poster,
+            codec,
+        } => {
+            let is_video = video || timeline.is_some();
+            if !is_video {
+                if export_timeline.is_some() || frames.is_some() || poster.is_some() {
+                    bail!("--export-timeline, --frames and --poster go with --video or --timeline");
+                }
+                let expression = Catalog::built_in().parse(expression.as_deref().unwrap_or_default())?;
+                let identity = IdentityTable::built_in().get(identity.as_deref().unwrap_or("wm1"))?;
+                if output.extension().is_some_and(|e| e.eq_ignore_ascii_case("mp4")) {
+                    bail!("output {} is a video: add --video (or --timeline FILE)", output.display());
+                }
+                check_png_path(&output)?;
+                let (width, height) = size.unwrap_or(engine::DEFAULT_SIZE);
+                let settings = FrameSettings { width, height, threads };
+                let image = engine::render_still(&expression, identity, settings)?;
+                return write_png(&image, &output);
+            }
+            let timeline = match timeline {
+                Some(path) => {
+                    let text = std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
+                    Timeline::from_json(&text).with_context(|| format!("in {}", path.display()))?
+                }
+                None => {
+                    let expression = Catalog::built_in().parse(expression.as_deref().unwrap_or_default())?;
+                    let timing = ClipTiming { onset_s: onset, apex_s: apex, offset_s: offset, ramp: ramp.into() };
+                    for (what, v) in [("--onset", onset), ("--apex", apex), ("--offset", offset)] {
+                        if !v.is_finite() || v < 0.0 {
+                            bail!("{what} {v} must be a duration of 0 seconds or more");
+                        }
+                    }
+                    let identity = identity.unwrap_or_else(|| "wm1".into());
+                    Timeline::clip(&expression, timing, fps, &identity, size.unwrap_or(engine::DEFAULT_SIZE))
+                }
+            };
+            let av1 = codec == CodecArg::Av1;
+            render_timeline_video(&timeline, &output, threads, export_timeline.as_deref(), frames.as_deref(), poster.as_deref(), av1)
+        }
+        Command::Stimuli(StimuliCommand::Check { spec }) => {
+            let set = SetSpec::load(&spec)?;
+            let videos = set.entries.iter().filter(|e| matches!(e.content, stimuli::Content::Video { .. })).count();
+            println!(
+                "{}: {} stimuli ({} videos, {} images), {} frames to render at {}x{}, seed {}",
+                set.name,
+                set.entries.len(),
+                videos,
+                set.entries.len() - videos,
+                set.frame_total(),
+                set.size.0,
+                set.size.1,
+                set.seed
+            );
+            Ok(())
+        }
+        Command::Stimuli(StimuliCommand::Build { spec, output, jobs }) => {
+            let set = SetSpec::load(&spec)?;
+            let started = std::time::Instant::now();
+            let options = stimuli::BuildOptions { jobs, progress: true };
+            let summary = stimuli::build(&set, &output, &options).with_context(|| format!("building {}", spec.display()))?;
+            eprintln!(
+                "{}: {} stimuli in {} ({} rendered, {} up to date; {} frames) in {:.1} s",
+                set.name,
+                summary.stimuli,
+                output.display(),
+                summary.rendered,
+                summary.skipped,
+                summary.frames_rendered,
+                started.elapsed().as_secs_f64()
+            );
+            Ok(())
         }
         Command::Sheet { set, identity, output, tile, columns } => {
             check_png_path(&output)?;
@@ -192,4 +356,62 @@ fn write_png(image: &RgbImage, path: &Path) -> anyhow::Result<()> {
     let partial = path.with_extension("png.partial");
     std::fs::write(&partial, image.encode_png()).with_context(|| format!("writing {}", partial.display()))?;
     std::fs::rename(&partial, path).with_context(|| format!("moving the image into place at {}", path.display()))
+}
+
+/// Renders a timeline to an MP4 (frames in parallel), with the optional extra outputs.
+fn render_timeline_video(
+    timeline: &Timeline,
+    output: &Path,
+    threads: Option<usize>,
+    export: Option<&Path>,
+    frames: Option<&Path>,
+    poster: Option<&Path>,
+    av1: bool,
+) -> anyhow::Result<()> {
+    if av1 && !cfg!(feature = "av1") {
+        bail!("this facslab was built without AV1 support (cargo build --features av1)");
+    }
+    if output.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() != Some("mp4") {
+        bail!("output {} must end in .mp4 for a video", output.display());
+    }
+    timeline.validate(Catalog::built_in())?;
+    IdentityTable::built_in().get(&timeline.identity)?;
+    if let Some(path) = export {
+        stimuli::build::write_atomic(path, timeline.to_json().as_bytes())?;
+    }
+    let settings = FrameSettings { width: timeline.size[0], height: timeline.size[1], threads: Some(1) };
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads.unwrap_or(0)).build()?;
+    let mut first = None;
+    let mut all_frames = Vec::new();
+    let total = timeline.frame_count();
+    let tty = std::io::IsTerminal::is_terminal(&std::io::stderr());
+    let bytes = pool.install(|| {
+        stimuli::render_video(timeline, settings, frames, true, &mut |frame, image| {
+            if tty {
+                eprint!("\rrendering frame {}/{total}", frame + 1);
+            }
+            if frame == 0 {
+                first = Some(image.clone());
+            }
+            if av1 {
+                all_frames.push(image.clone());
+            }
+        })
+    })?;
+    #[cfg(feature = "av1")]
+    let bytes = if av1 { engine::video::encode_av1_mp4(&all_frames, timeline.fps)? } else { bytes };
+    drop(all_frames);
+    if tty {
+        eprintln!();
+    }
+    stimuli::build::write_atomic(output, &bytes)?;
+    if let (Some(path), Some(image)) = (poster, first) {
+        check_png_path(path)?;
+        write_png(&image, path)?;
+    }
+    let (w, h) = engine::video::even_size(timeline.size[0], timeline.size[1]);
+    if (w, h) != (timeline.size[0], timeline.size[1]) {
+        eprintln!("note: {}x{} frames were padded to {w}x{h} for the video encoder", timeline.size[0], timeline.size[1]);
+    }
+    Ok(())
 }

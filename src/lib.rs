@@ -10,3 +10,4 @@ pub mod cli;
 pub mod engine;
 pub mod facs;
 pub mod report;
+pub mod stimuli;

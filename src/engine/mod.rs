@@ -18,6 +18,8 @@ pub mod raster;
 pub mod rig;
 pub mod shade;
 pub mod sheet;
+pub mod timeline;
+pub mod video;
 
 use glam::Vec3;
 

@@ -4,3 +4,4 @@ mod analyze;
 mod cli;
 mod golden;
 mod render;
+mod stimuli;

@@ -1,0 +1,429 @@
+//! Building a stimulus set: entries → media files, ground truth and the manifest.
+//!
+//! Layout of a built set (everything relative to the output directory):
+//!
+//! ```text
+//! manifest.csv, manifest.json     one row per stimulus (see `manifest`)
+//! media/<id>.png | media/<id>.mp4 what participants see
+//! posters/<id>.png                first frame of each video (neutral), for <video poster>
+//! ground_truth/<id>.csv           per-frame AU intensities of each video
+//! timelines/<id>.json             the timeline that reproduces each video exactly
+//! frames/<id>/000000.png …        every video frame as PNG, when the spec asks (png_frames)
+//! ```
+//!
+//! Ids are opaque: the first 16 hex digits of SHA-256 over a fixed key, the set seed and the
+//! entry index, so file names and paths say nothing about what a stimulus shows. Every file is
+//! written under a temporary name and renamed into place; the manifest is written last, so a
+//! failed build never leaves a partial file or a manifest describing files that do not exist.
+//! An entry whose manifest row would be unchanged and whose media file still has the recorded
+//! sha256 is not rendered again.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use rayon::prelude::*;
+use sha2::{Digest, Sha256};
+
+use super::manifest::{self, ManifestRow};
+use super::spec::{Content, Entry, SetSpec};
+use crate::engine::identity::IdentityTable;
+use crate::engine::image::RgbImage;
+use crate::engine::timeline::Timeline;
+use crate::engine::video::{Mp4Encoder, even_size};
+use crate::engine::{self, FrameSettings};
+use crate::facs::Catalog;
+
+/// The version written in every manifest row: images depend on the engine's code and tables.
+pub const ENGINE_VERSION: &str = env!("CARGO_PKG_VERSION");
+
+/// Why a set could not be built.
+#[derive(Debug, thiserror::Error)]
+pub enum BuildError {
+    #[error("{path}: {source}")]
+    Io { path: PathBuf, source: std::io::Error },
+    #[error("{entry}: {message}")]
+    Render { entry: String, message: String },
+    #[error("two entries got the same stimulus id {0}; change the seed")]
+    IdCollision(String),
+    #[error("could not start {0} worker threads: {1}")]
+    Threads(usize, String),
+}
+
+fn io(path: &Path) -> impl FnOnce(std::io::Error) -> BuildError + '_ {
+    move |source| BuildError::Io { path: path.to_path_buf(), source }
+}
+
+/// How to build.
+#[derive(Debug, Clone, Default)]
+pub struct BuildOptions {
+    /// Worker threads (`None` = all cores).
+    pub jobs: Option<usize>,
+    /// Draw a progress bar on stderr (hidden automatically when stderr is not a terminal).
+    pub progress: bool,
+}
+
+/// What a build did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BuildSummary {
+    pub stimuli: usize,
+    pub rendered: usize,
+    pub skipped: usize,
+    pub frames_rendered: usize,
+    pub rows: Vec<ManifestRow>,
+}
+
+/// The opaque id of entry `index` in a set with `seed`.
+pub fn stimulus_id(seed: u64, index: usize) -> String {
+    let mut hash = Sha256::new();
+    hash.update(b"facslab stimulus id v1\0");
+    hash.update(seed.to_le_bytes());
+    hash.update((index as u64).to_le_bytes());
+    hex::encode(&hash.finalize()[..8])
+}
+
+pub fn sha256_hex(bytes: &[u8]) -> String {
+    hex::encode(Sha256::digest(bytes))
+}
+
+/// Writes `bytes` to `path` through a temporary file in the same directory.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), BuildError> {
+    let partial = path.with_file_name(format!(
+        ".{}.partial",
+        path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default()
+    ));
+    std::fs::write(&partial, bytes).map_err(io(&partial))?;
+    std::fs::rename(&partial, path).map_err(io(path))
+}
+
+/// The row an entry will have, with `sha256` still empty.
+fn planned_row(spec: &SetSpec, entry: &Entry, id: &str) -> ManifestRow {
+    let (w, h) = spec.size;
+    let base = ManifestRow {
+        stimulus_id: id.to_string(),
+        media: String::new(),
+        file: String::new(),
+        identity: entry.identity.clone(),
+        expression: entry.expression.clone(),
+        emotion: entry.emotion.clone(),
+        intensity: entry.intensity,
+        onset_s: None,
+        apex_s: None,
+        offset_s: None,
+        frames: None,
+        fps: None,
+        width: w,
+        height: h,
+        sha256: String::new(),
+        set_seed: spec.seed,
+        engine_version: ENGINE_VERSION.to_string(),
+    };
+    match &entry.content {
+        Content::Image(_) => ManifestRow { media: "image".into(), file: format!("media/{id}.png"), ..base },
+        Content::Video { timeline, timing } => {
+            let (ew, eh) = even_size(w, h);
+            ManifestRow {
+                media: "video".into(),
+                file: format!("media/{id}.mp4"),
+                onset_s: Some(timing.onset_s),
+                apex_s: Some(timing.apex_s),
+                offset_s: Some(timing.offset_s),
+                frames: Some(timeline.frame_count()),
+                fps: Some(timeline.fps),
+                width: ew,
+                height: eh,
+                ..base
+            }
+        }
+    }
+}
+
+/// The files besides the media file that an entry needs.
+fn side_files(out: &Path, entry: &Entry, id: &str, png_frames: bool) -> Vec<PathBuf> {
+    match &entry.content {
+        Content::Image(_) => vec![],
+        Content::Video { .. } => {
+            let mut files = vec![
+                out.join("posters").join(format!("{id}.png")),
+                out.join("ground_truth").join(format!("{id}.csv")),
+                out.join("timelines").join(format!("{id}.json")),
+            ];
+            if png_frames {
+                files.push(out.join("frames").join(id));
+            }
+            files
+        }
+    }
+}
+
+fn up_to_date(out: &Path, old: Option<&ManifestRow>, planned: &ManifestRow, sides: &[PathBuf]) -> bool {
+    let Some(old) = old else { return false };
+    if (ManifestRow { sha256: String::new(), ..old.clone() }) != *planned {
+        return false;
+    }
+    if !sides.iter().all(|p| p.exists()) {
+        return false;
+    }
+    match std::fs::read(out.join(&old.file)) {
+        Ok(bytes) => sha256_hex(&bytes) == old.sha256,
+        Err(_) => false,
+    }
+}
+
+/// Builds `spec` into `out`. The spec is already validated; rendering starts only here.
+pub fn build(spec: &SetSpec, out: &Path, options: &BuildOptions) -> Result<BuildSummary, BuildError> {
+    let ids: Vec<String> = spec.entries.iter().map(|e| stimulus_id(spec.seed, e.index)).collect();
+    let mut seen = std::collections::BTreeSet::new();
+    for id in &ids {
+        if !seen.insert(id) {
+            return Err(BuildError::IdCollision(id.clone()));
+        }
+    }
+    for dir in ["media", "posters", "ground_truth", "timelines"] {
+        let path = out.join(dir);
+        std::fs::create_dir_all(&path).map_err(io(&path))?;
+    }
+    let manifest_json = out.join("manifest.json");
+    let old: Vec<ManifestRow> = match std::fs::read_to_string(&manifest_json) {
+        Ok(text) => manifest::from_json(&text).unwrap_or_default(),
+        Err(_) => Vec::new(),
+    };
+
+    let plans: Vec<(ManifestRow, bool)> = spec
+        .entries
+        .iter()
+        .zip(&ids)
+        .map(|(entry, id)| {
+            let planned = planned_row(spec, entry, id);
+            let previous = old.iter().find(|r| r.stimulus_id == *id);
+            let sides = side_files(out, entry, id, spec.png_frames);
+            let fresh = up_to_date(out, previous, &planned, &sides);
+            let row = if fresh { previous.cloned().expect("fresh rows have a previous row") } else { planned };
+            (row, fresh)
+        })
+        .collect();
+
+    let todo: Vec<usize> = (0..plans.len()).filter(|&i| !plans[i].1).collect();
+    let frames_todo: usize = todo
+        .iter()
+        .map(|&i| match &spec.entries[i].content {
+            Content::Image(_) => 1,
+            Content::Video { timeline, .. } => timeline.frame_count(),
+        })
+        .sum();
+    let bar = if options.progress {
+        let bar = indicatif::ProgressBar::with_draw_target(Some(frames_todo as u64), indicatif::ProgressDrawTarget::stderr());
+        bar.set_style(
+            indicatif::ProgressStyle::with_template("{spinner} {msg} [{bar:30}] {pos}/{len} frames, {elapsed} elapsed, eta {eta}")
+                .expect("a valid progress template")
+                .progress_chars("=> "),
+        );
+        bar.set_message(format!("{}: {} stimuli ({} up to date)", spec.name, plans.len(), plans.len() - todo.len()));
+        bar
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    let frames_rendered = AtomicUsize::new(0);
+
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(options.jobs.unwrap_or(0))
+        .build()
+        .map_err(|e| BuildError::Threads(options.jobs.unwrap_or(0), e.to_string()))?;
+    // Longest jobs first, so the pool does not end on one long video.
+    let mut order = todo.clone();
+    order.sort_by_key(|&i| std::cmp::Reverse(planned_frames(&spec.entries[i])));
+    let results: Vec<(usize, Result<String, BuildError>)> = pool.install(|| {
+        order
+            .par_iter()
+            .map(|&i| {
+                let entry = &spec.entries[i];
+                let result = render_entry(spec, entry, &ids[i], out, &|n| {
+                    bar.inc(n as u64);
+                    frames_rendered.fetch_add(n, Ordering::Relaxed);
+                });
+                (i, result)
+            })
+            .collect()
+    });
+    bar.finish_and_clear();
+
+    let mut rows: Vec<ManifestRow> = plans.iter().map(|(row, _)| row.clone()).collect();
+    for (i, result) in results {
+        rows[i].sha256 = result?;
+    }
+    write_atomic(&out.join("manifest.csv"), manifest::to_csv(&rows).as_bytes())?;
+    write_atomic(&manifest_json, manifest::to_json(&rows).as_bytes())?;
+    Ok(BuildSummary {
+        stimuli: rows.len(),
+        rendered: todo.len(),
+        skipped: rows.len() - todo.len(),
+        frames_rendered: frames_rendered.into_inner(),
+        rows,
+    })
+}
+
+fn planned_frames(entry: &Entry) -> usize {
+    match &entry.content {
+        Content::Image(_) => 1,
+        Content::Video { timeline, .. } => timeline.frame_count(),
+    }
+}
+
+/// Renders one entry's files and returns the sha256 of its media file.
+fn render_entry(spec: &SetSpec, entry: &Entry, id: &str, out: &Path, progress: &dyn Fn(usize)) -> Result<String, BuildError> {
+    let fail = |message: String| BuildError::Render { entry: entry.origin.clone(), message };
+    let identity = IdentityTable::built_in().get(&entry.identity).map_err(|e| fail(e.to_string()))?;
+    let settings = FrameSettings { width: spec.size.0, height: spec.size.1, threads: Some(1) };
+    match &entry.content {
+        Content::Image(expression) => {
+            let image = engine::render_still(expression, identity, settings).map_err(|e| fail(e.to_string()))?;
+            let bytes = image.encode_png();
+            write_atomic(&out.join("media").join(format!("{id}.png")), &bytes)?;
+            progress(1);
+            Ok(sha256_hex(&bytes))
+        }
+        Content::Video { timeline, .. } => {
+            let frames_dir = spec.png_frames.then(|| out.join("frames").join(id));
+            let mut poster = None;
+            let bytes = render_video(timeline, settings, frames_dir.as_deref(), false, &mut |frame, image| {
+                if frame == 0 {
+                    poster = Some(image.encode_png());
+                }
+                progress(1);
+            })
+            .map_err(|e| match e {
+                VideoBuildError::Io(e) => e,
+                other => fail(other.to_string()),
+            })?;
+            write_atomic(&out.join("media").join(format!("{id}.mp4")), &bytes)?;
+            write_atomic(&out.join("posters").join(format!("{id}.png")), &poster.expect("a video has a first frame"))?;
+            write_atomic(&out.join("ground_truth").join(format!("{id}.csv")), manifest::ground_truth_csv(timeline).as_bytes())?;
+            write_atomic(&out.join("timelines").join(format!("{id}.json")), timeline.to_json().as_bytes())?;
+            Ok(sha256_hex(&bytes))
+        }
+    }
+}
+
+/// Why a timeline could not be rendered to video.
+#[derive(Debug, thiserror::Error)]
+pub enum VideoBuildError {
+    #[error(transparent)]
+    Notation(#[from] crate::facs::NotationError),
+    #[error(transparent)]
+    Engine(#[from] engine::EngineError),
+    #[error(transparent)]
+    Video(#[from] crate::engine::video::VideoError),
+    #[error(transparent)]
+    Io(BuildError),
+}
+
+/// Renders every frame of `timeline` (on the calling thread, or in parallel over frames with
+/// `parallel`; each distinct expression is rendered once), encodes the MP4, and optionally writes the PNG frames into
+/// `frames_dir` (through a temporary directory renamed into place). `on_frame` sees each frame.
+pub fn render_video(
+    timeline: &Timeline,
+    settings: FrameSettings,
+    frames_dir: Option<&Path>,
+    parallel: bool,
+    on_frame: &mut dyn FnMut(usize, &RgbImage),
+) -> Result<Vec<u8>, VideoBuildError> {
+    let catalog = Catalog::built_in();
+    let identity = IdentityTable::built_in().get(&timeline.identity).map_err(|e| {
+        VideoBuildError::Io(BuildError::Render { entry: timeline.identity.clone(), message: e.to_string() })
+    })?;
+    let partial_dir = frames_dir.map(|d| d.with_file_name(format!(".{}.partial", d.file_name().unwrap_or_default().to_string_lossy())));
+    if let Some(dir) = &partial_dir {
+        let _ = std::fs::remove_dir_all(dir);
+        std::fs::create_dir_all(dir).map_err(|e| VideoBuildError::Io(io(dir)(e)))?;
+    }
+    let mut encoder = Mp4Encoder::new(settings.width, settings.height, timeline.fps)?;
+    let expressions: Vec<crate::facs::Expression> =
+        (0..timeline.frame_count()).map(|f| timeline.frame_expression(f, catalog)).collect::<Result<_, _>>()?;
+    // Each distinct expression is rendered once: the apex is held, and a falling ramp passes
+    // through the rising ramp's values (see `timeline::RAMP_STEP`). Rendered frames are kept
+    // for reuse up to a memory budget. In parallel mode, chunks of frames render at once.
+    const CACHE_BYTES: usize = 96 << 20;
+    let mut cache: std::collections::HashMap<String, std::sync::Arc<RgbImage>> = std::collections::HashMap::new();
+    let mut cached_bytes = 0usize;
+    let chunk = if parallel { 4 * rayon::current_num_threads() } else { 1 };
+    let frame_settings = FrameSettings { threads: if parallel { Some(1) } else { settings.threads }, ..settings };
+    let keys: Vec<String> = expressions.iter().map(|e| e.to_string()).collect();
+    for start in (0..expressions.len()).step_by(chunk) {
+        let end = (start + chunk).min(expressions.len());
+        let mut fresh: Vec<usize> = Vec::new();
+        for f in start..end {
+            if !cache.contains_key(&keys[f]) && !fresh.iter().any(|&g| keys[g] == keys[f]) {
+                fresh.push(f);
+            }
+        }
+        let render = |&f: &usize| engine::render_still(&expressions[f], identity, frame_settings).map(|image| (f, image));
+        let rendered: Vec<(usize, RgbImage)> = if parallel {
+            fresh.par_iter().map(render).collect::<Result<_, _>>()?
+        } else {
+            fresh.iter().map(render).collect::<Result<_, _>>()?
+        };
+        let mut local: std::collections::HashMap<&str, std::sync::Arc<RgbImage>> = std::collections::HashMap::new();
+        for (f, image) in rendered {
+            local.insert(&keys[f], std::sync::Arc::new(image));
+        }
+        for (frame, key) in keys.iter().enumerate().take(end).skip(start) {
+            let key = key.as_str();
+            let image = local.get(key).or_else(|| cache.get(key)).cloned().expect("every frame is rendered or cached");
+            encoder.push(&image)?;
+            if let Some(dir) = &partial_dir {
+                let path = dir.join(format!("{frame:06}.png"));
+                std::fs::write(&path, image.encode_png()).map_err(|e| VideoBuildError::Io(io(&path)(e)))?;
+            }
+            on_frame(frame, &image);
+        }
+        for (key, image) in local {
+            if cached_bytes + image.data.len() <= CACHE_BYTES {
+                cached_bytes += image.data.len();
+                cache.insert(key.to_string(), image);
+            }
+        }
+    }
+    let bytes = encoder.finish()?;
+    if let (Some(partial), Some(dir)) = (&partial_dir, frames_dir) {
+        move_frames_into_place(partial, dir, timeline.frame_count()).map_err(VideoBuildError::Io)?;
+    }
+    Ok(bytes)
+}
+
+/// Moves the frames from `partial` into `dir`: a plain rename when `dir` does not exist;
+/// otherwise frame by frame, removing frame files past `count` left by an older, longer video
+/// (nothing else in `dir` is touched).
+fn move_frames_into_place(partial: &Path, dir: &Path, count: usize) -> Result<(), BuildError> {
+    if !dir.exists() {
+        return std::fs::rename(partial, dir).map_err(io(dir));
+    }
+    let entries = std::fs::read_dir(dir).map_err(io(dir))?;
+    for entry in entries {
+        let path = entry.map_err(io(dir))?.path();
+        let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        if let Some(stem) = name.strip_suffix(".png")
+            && stem.len() == 6
+            && stem.parse::<usize>().is_ok_and(|n| n >= count)
+        {
+            std::fs::remove_file(&path).map_err(io(&path))?;
+        }
+    }
+    for frame in 0..count {
+        let name = format!("{frame:06}.png");
+        std::fs::rename(partial.join(&name), dir.join(&name)).map_err(io(&dir.join(&name)))?;
+    }
+    std::fs::remove_dir(partial).map_err(io(partial))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ids_are_opaque_stable_and_distinct() {
+        assert_eq!(stimulus_id(7, 0), stimulus_id(7, 0));
+        assert_ne!(stimulus_id(7, 0), stimulus_id(7, 1));
+        assert_ne!(stimulus_id(7, 0), stimulus_id(8, 0));
+        assert_eq!(stimulus_id(7, 0).len(), 16);
+        assert!(stimulus_id(7, 0).chars().all(|c| c.is_ascii_hexdigit()));
+    }
+}

@@ -1,0 +1,226 @@
+//! The stimulus manifest (design.md §3) and the per-frame ground truth of a video.
+//!
+//! `manifest.csv` and `manifest.json` hold the same rows, one per stimulus, with exactly the
+//! columns of [`COLUMNS`]. In the CSV an absent value (timing, frames and fps of an image) is an
+//! empty field; in the JSON it is `null`. Numbers are printed in Rust's shortest round-trip form.
+//!
+//! The per-frame ground truth (`ground_truth/<id>.csv`) has the columns
+//! `frame,time_s,AU01_r,AU02_r,…` after the OpenFace convention: one column per AU the video
+//! uses, ordered by AU number; a one-sided AU gets `AU12L_r` / `AU12R_r`. **Intensities are
+//! fractions of the AU's maximum in [0, 1]** (multiply by 5 for OpenFace's 0–5 scale), exactly
+//! the values the frame was rendered with; `time_s = frame / fps`.
+
+use serde::{Deserialize, Serialize};
+
+use crate::engine::timeline::Timeline;
+use crate::facs::Laterality;
+
+/// The manifest columns, in order.
+pub const COLUMNS: [&str; 17] = [
+    "stimulus_id",
+    "media",
+    "file",
+    "identity",
+    "expression",
+    "emotion",
+    "intensity",
+    "onset_s",
+    "apex_s",
+    "offset_s",
+    "frames",
+    "fps",
+    "width",
+    "height",
+    "sha256",
+    "set_seed",
+    "engine_version",
+];
+
+/// One stimulus in the manifest.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ManifestRow {
+    /// Opaque and random (derived from the set seed and the entry index); also the file stem.
+    pub stimulus_id: String,
+    /// `image` or `video`.
+    pub media: String,
+    /// Path relative to the set directory (`media/<id>.png` or `media/<id>.mp4`).
+    pub file: String,
+    pub identity: String,
+    /// FACS notation at the peak, with intensities and sides; a CPT sequence gives every AU of
+    /// its steps once, at its highest intensity (order and timing: timeline and ground truth).
+    pub expression: String,
+    /// Emotion label (or CPT check name); empty for AU stimuli.
+    pub emotion: String,
+    /// Peak intensity, 0–1.
+    pub intensity: f64,
+    pub onset_s: Option<f64>,
+    pub apex_s: Option<f64>,
+    pub offset_s: Option<f64>,
+    pub frames: Option<usize>,
+    pub fps: Option<u32>,
+    /// Size of the file's pictures (videos: padded to even sides, e.g. 486×480 for 485×480).
+    pub width: u32,
+    pub height: u32,
+    pub sha256: String,
+    pub set_seed: u64,
+    pub engine_version: String,
+}
+
+fn opt<T: ToString>(v: &Option<T>) -> String {
+    v.as_ref().map(T::to_string).unwrap_or_default()
+}
+
+/// Quotes a CSV field when it needs it (RFC 4180).
+pub fn csv_field(text: &str) -> String {
+    if text.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", text.replace('"', "\"\""))
+    } else {
+        text.to_string()
+    }
+}
+
+impl ManifestRow {
+    fn csv_fields(&self) -> Vec<String> {
+        vec![
+            self.stimulus_id.clone(),
+            self.media.clone(),
+            self.file.clone(),
+            self.identity.clone(),
+            self.expression.clone(),
+            self.emotion.clone(),
+            self.intensity.to_string(),
+            opt(&self.onset_s),
+            opt(&self.apex_s),
+            opt(&self.offset_s),
+            opt(&self.frames),
+            opt(&self.fps),
+            self.width.to_string(),
+            self.height.to_string(),
+            self.sha256.clone(),
+            self.set_seed.to_string(),
+            self.engine_version.clone(),
+        ]
+    }
+}
+
+/// `manifest.csv`: a header line with [`COLUMNS`], then one line per row.
+pub fn to_csv(rows: &[ManifestRow]) -> String {
+    let mut out = COLUMNS.join(",");
+    out.push('\n');
+    for row in rows {
+        out.push_str(&row.csv_fields().iter().map(|f| csv_field(f)).collect::<Vec<_>>().join(","));
+        out.push('\n');
+    }
+    out
+}
+
+/// `manifest.json`: an array of objects with exactly the [`COLUMNS`] as keys, in order.
+pub fn to_json(rows: &[ManifestRow]) -> String {
+    let mut text = serde_json::to_string_pretty(rows).expect("manifest rows serialise");
+    text.push('\n');
+    text
+}
+
+pub fn from_json(text: &str) -> Result<Vec<ManifestRow>, serde_json::Error> {
+    serde_json::from_str(text)
+}
+
+/// The ground-truth column name of an AU on a side: `AU12_r`, `AU12L_r`, `AU12R_r`.
+pub fn ground_truth_column(au: crate::facs::AuCode, side: Laterality) -> String {
+    let side = match side {
+        Laterality::Both => "",
+        Laterality::Left => "L",
+        Laterality::Right => "R",
+    };
+    format!("{}{side}_r", au.column())
+}
+
+/// The per-frame ground truth of `timeline` as CSV (see the module docs).
+pub fn ground_truth_csv(timeline: &Timeline) -> String {
+    let mut channels = timeline.channels();
+    channels.sort();
+    let mut out = String::from("frame,time_s");
+    for &(au, side) in &channels {
+        out.push(',');
+        out.push_str(&ground_truth_column(au, side));
+    }
+    out.push('\n');
+    for frame in 0..timeline.frame_count() {
+        let t = timeline.time_of(frame);
+        let values = timeline.values_at(t);
+        out.push_str(&format!("{frame},{t}"));
+        for channel in &channels {
+            let value = values.iter().find(|(c, _)| c == channel).map_or(0.0, |&(_, v)| v);
+            out.push_str(&format!(",{value}"));
+        }
+        out.push('\n');
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::engine::timeline::ClipTiming;
+    use crate::facs::Catalog;
+
+    fn row() -> ManifestRow {
+        ManifestRow {
+            stimulus_id: "0a1b2c3d4e5f6789".into(),
+            media: "video".into(),
+            file: "media/0a1b2c3d4e5f6789.mp4".into(),
+            identity: "wm1".into(),
+            expression: "12@1+R14@0.5".into(),
+            emotion: String::new(),
+            intensity: 1.0,
+            onset_s: Some(1.0),
+            apex_s: Some(1.0),
+            offset_s: Some(1.0),
+            frames: Some(90),
+            fps: Some(30),
+            width: 486,
+            height: 480,
+            sha256: "ab".repeat(32),
+            set_seed: 7,
+            engine_version: "0.1.0".into(),
+        }
+    }
+
+    #[test]
+    fn csv_and_json_have_exactly_the_contract_columns() {
+        let csv = to_csv(&[row()]);
+        let mut lines = csv.lines();
+        assert_eq!(
+            lines.next().unwrap(),
+            "stimulus_id,media,file,identity,expression,emotion,intensity,onset_s,apex_s,offset_s,frames,fps,width,height,sha256,set_seed,engine_version"
+        );
+        assert_eq!(lines.next().unwrap().split(',').count(), COLUMNS.len());
+        let json: serde_json::Value = serde_json::from_str(&to_json(&[row()])).unwrap();
+        let keys: Vec<&String> = json[0].as_object().unwrap().keys().collect();
+        let mut expected: Vec<&str> = COLUMNS.to_vec();
+        expected.sort();
+        let mut keys: Vec<&str> = keys.iter().map(|k| k.as_str()).collect();
+        keys.sort();
+        assert_eq!(keys, expected);
+        assert_eq!(from_json(&to_json(&[row()])).unwrap(), vec![row()]);
+    }
+
+    #[test]
+    fn image_rows_leave_timing_empty() {
+        let image = ManifestRow { media: "image".into(), onset_s: None, apex_s: None, offset_s: None, frames: None, fps: None, ..row() };
+        let csv = to_csv(&[image]);
+        assert!(csv.lines().nth(1).unwrap().contains(",1,,,,,,486,480,"), "{csv}");
+    }
+
+    #[test]
+    fn ground_truth_lists_each_au_and_side_per_frame() {
+        let e = Catalog::built_in().parse("R14+12C").unwrap();
+        let t = Timeline::clip(&e, ClipTiming::default(), 30, "wm1", (64, 64));
+        let csv = ground_truth_csv(&t);
+        let lines: Vec<&str> = csv.lines().collect();
+        assert_eq!(lines[0], "frame,time_s,AU12_r,AU14R_r");
+        assert_eq!(lines.len(), 91);
+        assert_eq!(lines[1], "0,0,0,0");
+        assert_eq!(lines[46], "45,1.5,0.55,1");
+    }
+}

@@ -1,0 +1,16 @@
+//! Stimulus sets: specifications (TOML, `stimuli/sets/`), their validation and expansion into
+//! entries ([`spec`]), the build that renders them with opaque file names ([`build`]), and the
+//! manifest and per-frame ground truth written beside them ([`manifest`]).
+//!
+//! In: a spec file. Out: a directory of media files plus `manifest.csv`/`manifest.json`.
+//! Invariant: a spec is fully validated before anything renders, and the same spec and seed give
+//! byte-identical manifests and media. Nothing a participant can see (file names, paths, ids)
+//! depends on what a stimulus shows. Absent: studies, participants, HTTP.
+
+pub mod build;
+pub mod manifest;
+pub mod spec;
+
+pub use build::{BuildError, BuildOptions, BuildSummary, ENGINE_VERSION, build, render_video, stimulus_id};
+pub use manifest::{COLUMNS, ManifestRow};
+pub use spec::{Content, Entry, SetSpec, SpecError};

@@ -1,0 +1,446 @@
+//! Stimulus-set specifications (TOML, `stimuli/sets/*.toml`) and their expansion into entries.
+//!
+//! A spec names the set, its seed, frame size and rate, the identities to rotate over, and
+//! groups. Each group takes its expressions from exactly one source (every HapFACS AU, a list
+//! of FACS expressions, EmFACS emotions, or CPT appraisal checks) and asks for videos at some
+//! peak intensities and stills at some intensities:
+//!
+//! ```toml
+//! name = "exp1"
+//! seed = 1001
+//! # size = [485, 480]; fps = 30; identities = ["wm1", "wm2", "bm1", "bm2", "wf1", "wf2", "bf1", "bf2"]
+//!
+//! [[group]]
+//! name = "single AUs"
+//! aus = "hapfacs"                 # or: expressions = ["1+2", …] / emotions = "all" | [..] / cpt = "all" | [..]
+//! video_peaks = [1.0]             # one video per peak intensity
+//! stills = [0.3, 0.6, 0.9]        # one still per intensity
+//! timing = { onset_s = 1.0, apex_s = 1.0, offset_s = 1.0, ramp = "linear" }   # the default
+//! identity = "rotate"             # or "each" (every identity) or one identity id
+//! ```
+//!
+//! Validation is complete before anything is rendered: [`SetSpec::from_toml`] returns either the
+//! full list of [`Entry`]s or an error naming the group and item at fault.
+
+use serde::Deserialize;
+
+use crate::engine::identity::IdentityTable;
+use crate::engine::timeline::{ClipTiming, Timeline};
+use crate::facs::{AppraisalTable, Catalog, EmotionTable, Expression};
+
+/// The eight evaluation identities, in rotation order.
+pub const EIGHT: [&str; 8] = ["wm1", "wm2", "bm1", "bm2", "wf1", "wf2", "bf1", "bf2"];
+
+/// A spec that cannot be built; `entry` says where.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{entry}: {message}")]
+pub struct SpecError {
+    pub entry: String,
+    pub message: String,
+}
+
+fn fail(entry: impl Into<String>, message: impl Into<String>) -> SpecError {
+    SpecError { entry: entry.into(), message: message.into() }
+}
+
+/// "all" or a list of names.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(untagged)]
+enum Selection {
+    Word(String),
+    List(Vec<String>),
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawSpec {
+    name: String,
+    #[serde(default)]
+    description: String,
+    seed: u64,
+    #[serde(default)]
+    size: Option<[u32; 2]>,
+    #[serde(default)]
+    fps: Option<u32>,
+    #[serde(default)]
+    identities: Option<Vec<String>>,
+    #[serde(default)]
+    png_frames: bool,
+    group: Vec<RawGroup>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawGroup {
+    name: String,
+    #[serde(default)]
+    aus: Option<String>,
+    #[serde(default)]
+    expressions: Option<Vec<String>>,
+    #[serde(default)]
+    emotions: Option<Selection>,
+    #[serde(default)]
+    cpt: Option<Selection>,
+    #[serde(default)]
+    video_peaks: Vec<f64>,
+    #[serde(default)]
+    stills: Vec<f64>,
+    #[serde(default)]
+    timing: Option<ClipTiming>,
+    #[serde(default)]
+    identity: Option<String>,
+}
+
+/// What one stimulus shows.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Content {
+    /// A still of this expression (already at its intensity).
+    Image(Expression),
+    /// A video: the timeline to render, with its clip timing for the manifest.
+    Video { timeline: Timeline, timing: ClipTiming },
+}
+
+/// One stimulus of a set, fully validated.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Entry {
+    /// Position in the set (0-based); with the seed it gives the opaque stimulus id.
+    pub index: usize,
+    /// Where it comes from, for messages only (never written where a participant can see it).
+    pub origin: String,
+    pub identity: String,
+    pub content: Content,
+    /// FACS notation at the peak; for a CPT sequence, every AU of its steps (each once, at its
+    /// highest intensity): the order and timing are in the timeline and the ground truth.
+    pub expression: String,
+    /// Emotion label or CPT check name; empty for AU stimuli.
+    pub emotion: String,
+    /// Peak intensity in [0, 1].
+    pub intensity: f64,
+}
+
+/// A validated stimulus set.
+#[derive(Debug, Clone)]
+pub struct SetSpec {
+    pub name: String,
+    pub description: String,
+    pub seed: u64,
+    pub size: (u32, u32),
+    pub fps: u32,
+    /// Also write every video frame as PNG (`frames/<id>/000000.png`).
+    pub png_frames: bool,
+    pub entries: Vec<Entry>,
+}
+
+/// One expression a group contributes, before media and intensities are applied.
+struct Item {
+    label: String,
+    emotion: String,
+    /// One step, or several for a CPT sequence.
+    steps: Vec<Expression>,
+}
+
+impl SetSpec {
+    /// Reads and validates a spec against the built-in catalog, emotion and CPT tables and
+    /// identities.
+    pub fn from_toml(text: &str) -> Result<SetSpec, SpecError> {
+        let raw: RawSpec = toml::from_str(text).map_err(|e| fail("spec", format!("not a valid set specification: {e}")))?;
+        let catalog = Catalog::built_in();
+        let identities_table = IdentityTable::built_in();
+        let size = raw.size.unwrap_or([crate::engine::DEFAULT_SIZE.0, crate::engine::DEFAULT_SIZE.1]);
+        if !(16..=4096).contains(&size[0]) || !(16..=4096).contains(&size[1]) {
+            return Err(fail("spec", format!("size {}×{} is out of range (each side 16..=4096)", size[0], size[1])));
+        }
+        let fps = raw.fps.unwrap_or(crate::engine::timeline::DEFAULT_FPS);
+        if !(1..=120).contains(&fps) {
+            return Err(fail("spec", format!("fps {fps} is out of range (1..=120)")));
+        }
+        let rotation: Vec<String> = raw.identities.unwrap_or_else(|| EIGHT.iter().map(|s| s.to_string()).collect());
+        if rotation.is_empty() {
+            return Err(fail("spec", "identities is empty"));
+        }
+        for id in &rotation {
+            identities_table.get(id).map_err(|_| fail("spec", format!("identity \"{id}\" is not known (see `facslab identities`)")))?;
+        }
+        if raw.group.is_empty() {
+            return Err(fail("spec", "no [[group]]"));
+        }
+
+        let mut entries = Vec::new();
+        for (g, group) in raw.group.iter().enumerate() {
+            let gname = format!("group {} \"{}\"", g + 1, group.name);
+            let items = group_items(group, &gname, catalog)?;
+            let timing = group.timing.unwrap_or_default();
+            check_timing(&timing).map_err(|m| fail(&gname, m))?;
+            for (what, list) in [("video_peaks", &group.video_peaks), ("stills", &group.stills)] {
+                if let Some(v) = list.iter().find(|v| !(v.is_finite() && (0.0..=1.0).contains(*v))) {
+                    return Err(fail(&gname, format!("{what}: intensity {v} is outside [0, 1]")));
+                }
+            }
+            if group.video_peaks.is_empty() && group.stills.is_empty() {
+                return Err(fail(&gname, "asks for no media (set video_peaks and/or stills)"));
+            }
+            let is_sequence = group.cpt.is_some();
+            if is_sequence && !group.stills.is_empty() {
+                return Err(fail(&gname, "CPT sequences are videos only (remove stills)"));
+            }
+            let mode = group.identity.as_deref().unwrap_or("rotate");
+            if mode != "rotate" && mode != "each" {
+                identities_table
+                    .get(mode)
+                    .map_err(|_| fail(&gname, format!("identity \"{mode}\" is not known (see `facslab identities`)")))?;
+            }
+            for (i, item) in items.iter().enumerate() {
+                let item_name = format!("{gname}, item {} ({})", i + 1, item.label);
+                let who: Vec<String> = match mode {
+                    "rotate" => vec![rotation[i % rotation.len()].clone()],
+                    "each" => rotation.clone(),
+                    one => vec![one.to_string()],
+                };
+                for identity in who {
+                    for &peak in &group.video_peaks {
+                        let steps: Vec<Expression> = item.steps.iter().map(|s| s.scaled(peak)).collect();
+                        let timeline = if is_sequence {
+                            Timeline::sequence(&steps, timing, fps, &identity, (size[0], size[1]))
+                        } else {
+                            Timeline::clip(&steps[0], timing, fps, &identity, (size[0], size[1]))
+                        };
+                        timeline.validate(catalog).map_err(|e| fail(&item_name, e.to_string()))?;
+                        entries.push(Entry {
+                            index: entries.len(),
+                            origin: format!("{item_name}, video at {peak}, {identity}"),
+                            identity: identity.clone(),
+                            content: Content::Video { timeline, timing },
+                            expression: union(&steps, catalog).map_err(|e| fail(&item_name, e.to_string()))?.to_string(),
+                            emotion: item.emotion.clone(),
+                            intensity: peak,
+                        });
+                    }
+                    for &level in &group.stills {
+                        let expression = item.steps[0].scaled(level);
+                        entries.push(Entry {
+                            index: entries.len(),
+                            origin: format!("{item_name}, still at {level}, {identity}"),
+                            identity: identity.clone(),
+                            expression: expression.to_string(),
+                            content: Content::Image(expression),
+                            emotion: item.emotion.clone(),
+                            intensity: level,
+                        });
+                    }
+                }
+            }
+        }
+        Ok(SetSpec {
+            name: raw.name,
+            description: raw.description,
+            seed: raw.seed,
+            size: (size[0], size[1]),
+            fps,
+            png_frames: raw.png_frames,
+            entries,
+        })
+    }
+
+    /// Reads a spec file.
+    pub fn load(path: &std::path::Path) -> Result<SetSpec, SpecError> {
+        let text = std::fs::read_to_string(path).map_err(|e| fail(path.display().to_string(), e.to_string()))?;
+        SetSpec::from_toml(&text)
+    }
+
+    /// How many frames the set renders (videos count every frame; stills count one).
+    pub fn frame_total(&self) -> usize {
+        self.entries
+            .iter()
+            .map(|e| match &e.content {
+                Content::Image(_) => 1,
+                Content::Video { timeline, .. } => timeline.frame_count(),
+            })
+            .sum()
+    }
+}
+
+/// Every AU of `steps`, each once (first appearance order, highest intensity; an AU shown on
+/// different sides in different steps becomes bilateral).
+fn union(steps: &[Expression], catalog: &Catalog) -> Result<Expression, crate::facs::NotationError> {
+    use crate::facs::{Activation, Intensity, Laterality};
+    let mut out: Vec<Activation> = Vec::new();
+    for activation in steps.iter().flat_map(|s| s.activations()) {
+        match out.iter_mut().find(|a| a.au == activation.au) {
+            Some(kept) => {
+                if kept.side != activation.side {
+                    kept.side = Laterality::Both;
+                }
+                let strongest = kept.strength().max(activation.strength());
+                kept.intensity = Some(Intensity::Fraction(strongest));
+            }
+            None => out.push(*activation),
+        }
+    }
+    Expression::from_activations(out, catalog)
+}
+
+fn check_timing(t: &ClipTiming) -> Result<(), String> {
+    for (what, v) in [("onset_s", t.onset_s), ("apex_s", t.apex_s), ("offset_s", t.offset_s)] {
+        if !v.is_finite() || v < 0.0 {
+            return Err(format!("timing: {what} = {v} is a negative (or not a finite) duration"));
+        }
+    }
+    if t.total_s() <= 0.0 {
+        return Err("timing: the clip lasts 0 s".into());
+    }
+    Ok(())
+}
+
+fn selection<'a>(sel: &'a Selection, gname: &str, what: &str) -> Result<Option<&'a [String]>, SpecError> {
+    match sel {
+        Selection::Word(w) if w == "all" => Ok(None),
+        Selection::Word(w) => Err(fail(gname, format!("{what} = \"{w}\": use \"all\" or a list of names"))),
+        Selection::List(list) => Ok(Some(list)),
+    }
+}
+
+fn group_items(group: &RawGroup, gname: &str, catalog: &Catalog) -> Result<Vec<Item>, SpecError> {
+    let sources = [group.aus.is_some(), group.expressions.is_some(), group.emotions.is_some(), group.cpt.is_some()];
+    if sources.iter().filter(|&&s| s).count() != 1 {
+        return Err(fail(gname, "needs exactly one of aus, expressions, emotions, cpt"));
+    }
+    let mut items = Vec::new();
+    if let Some(aus) = &group.aus {
+        if aus != "hapfacs" && aus != "all" {
+            return Err(fail(gname, format!("aus = \"{aus}\": use \"hapfacs\" (the 49 HapFACS AUs) or \"all\"")));
+        }
+        for unit in catalog.iter().filter(|u| aus == "all" || u.hapfacs) {
+            let expression = catalog.parse(&unit.code.to_string()).map_err(|e| fail(gname, e.to_string()))?;
+            items.push(Item { label: format!("AU {}", unit.code), emotion: String::new(), steps: vec![expression] });
+        }
+    }
+    if let Some(list) = &group.expressions {
+        for (i, text) in list.iter().enumerate() {
+            let expression = catalog
+                .parse(text)
+                .map_err(|e| fail(format!("{gname}, item {} (\"{text}\")", i + 1), e.to_string()))?;
+            items.push(Item { label: format!("\"{text}\""), emotion: String::new(), steps: vec![expression] });
+        }
+    }
+    if let Some(sel) = &group.emotions {
+        let table = EmotionTable::built_in();
+        match selection(sel, gname, "emotions")? {
+            None => items.extend(table.iter().map(|e| Item {
+                label: e.label.clone(),
+                emotion: e.label.clone(),
+                steps: vec![e.expression.clone()],
+            })),
+            Some(names) => {
+                for (i, name) in names.iter().enumerate() {
+                    let emotion = table.get(name).ok_or_else(|| {
+                        fail(format!("{gname}, item {} (\"{name}\")", i + 1), format!("emotion \"{name}\" is not in the EmFACS table"))
+                    })?;
+                    items.push(Item { label: name.clone(), emotion: name.clone(), steps: vec![emotion.expression.clone()] });
+                }
+            }
+        }
+    }
+    if let Some(sel) = &group.cpt {
+        let table = AppraisalTable::built_in();
+        let all: Vec<_> = table.iter().collect();
+        let chosen: Vec<_> = match selection(sel, gname, "cpt")? {
+            None => all,
+            Some(names) => names
+                .iter()
+                .enumerate()
+                .map(|(i, name)| {
+                    all.iter().copied().find(|c| &c.name == name).ok_or_else(|| {
+                        fail(format!("{gname}, item {} (\"{name}\")", i + 1), format!("CPT check \"{name}\" is not in the appraisal table"))
+                    })
+                })
+                .collect::<Result<_, _>>()?,
+        };
+        for check in chosen {
+            items.push(Item { label: check.name.clone(), emotion: check.name.clone(), steps: check.steps.clone() });
+        }
+    }
+    if items.is_empty() {
+        return Err(fail(gname, "selects no expressions"));
+    }
+    Ok(items)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const HEAD: &str = "name = \"t\"\nseed = 7\nsize = [32, 32]\n";
+
+    fn spec(groups: &str) -> Result<SetSpec, SpecError> {
+        SetSpec::from_toml(&format!("{HEAD}{groups}"))
+    }
+
+    fn err(groups: &str) -> String {
+        spec(groups).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn the_seed_experiment_sets_expand_to_the_papers_counts() {
+        let load = |name: &str| {
+            let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("stimuli/sets").join(name);
+            SetSpec::load(&path).unwrap_or_else(|e| panic!("{name}: {e}"))
+        };
+        let count = |s: &SetSpec, video: bool| s.entries.iter().filter(|e| matches!(e.content, Content::Video { .. }) == video).count();
+        let exp1 = load("exp1.toml");
+        assert_eq!((count(&exp1, true), count(&exp1, false)), (49, 147));
+        let exp2 = load("exp2.toml");
+        assert_eq!((count(&exp2, true), count(&exp2, false)), (54, 54));
+        let exp3 = load("exp3.toml");
+        assert_eq!((count(&exp3, true), count(&exp3, false)), (20, 20));
+        let cpt = load("cpt.toml");
+        assert_eq!((count(&cpt, true), count(&cpt, false)), (7, 0));
+        let demo = load("demo.toml");
+        assert_eq!(count(&demo, true), 2);
+        // Exp. 1: a 3-s video at 30 fps, identities rotated over the eight.
+        let Content::Video { timeline, .. } = &exp1.entries[0].content else { panic!() };
+        assert_eq!((timeline.frame_count(), timeline.fps), (90, 30));
+        let ids: Vec<&str> = exp1.entries.iter().step_by(4).take(9).map(|e| e.identity.as_str()).collect();
+        assert_eq!(ids, ["wm1", "wm2", "bm1", "bm2", "wf1", "wf2", "bf1", "bf2", "wm1"]);
+    }
+
+    #[test]
+    fn entries_carry_expression_intensity_and_emotion() {
+        let s = spec("[[group]]\nname = \"e\"\nemotions = [\"happiness\"]\nvideo_peaks = [0.5]\nstills = [1.0]\n").unwrap();
+        assert_eq!(s.entries.len(), 2);
+        assert_eq!(s.entries[0].expression, "6@0.5+12@0.5+25@0.5");
+        assert_eq!((s.entries[0].emotion.as_str(), s.entries[0].intensity), ("happiness", 0.5));
+        assert_eq!(s.entries[1].expression, "6@1+12@1+25@1");
+        let s = spec("[[group]]\nname = \"c\"\ncpt = [\"novelty\"]\nvideo_peaks = [1.0]\n").unwrap();
+        assert_eq!(s.entries[0].expression, "1@1+2@1+5@1+4@1+7@1+26@1+38@1");
+        let s = spec("[[group]]\nname = \"c\"\ncpt = \"all\"\nvideo_peaks = [0.5]\n").unwrap();
+        let high_power = s.entries.iter().find(|e| e.emotion == "control_high_power").unwrap();
+        assert_eq!(high_power.expression, "4@0.5+5@0.5+7@0.5+23@0.5+25@0.5+24@0.5+38@0.5");
+        for entry in &s.entries {
+            Catalog::built_in().parse(&entry.expression).unwrap_or_else(|e| panic!("{}: {e}", entry.emotion));
+        }
+        let s = spec("[[group]]\nname = \"x\"\nexpressions = [\"12\"]\nstills = [0.5]\nidentity = \"each\"\n").unwrap();
+        assert_eq!(s.entries.len(), 8);
+    }
+
+    #[test]
+    fn bad_specs_name_the_entry() {
+        let e = err("[[group]]\nname = \"combos\"\nexpressions = [\"1+2\", \"1+99\"]\nstills = [0.7]\n");
+        assert!(e.starts_with("group 1 \"combos\", item 2 (\"1+99\")") && e.contains("AU 99 is not in the catalog"), "{e}");
+        let e = err("[[group]]\nname = \"g\"\nexpressions = [\"12\"]\nvideo_peaks = [1]\ntiming = { onset_s = -1.0, apex_s = 1.0, offset_s = 1.0 }\n");
+        assert!(e.starts_with("group 1 \"g\"") && e.contains("onset_s = -1 is a negative"), "{e}");
+        let e = err("[[group]]\nname = \"g\"\nexpressions = [\"12\"]\nstills = [0.5, 1.5]\n");
+        assert!(e.contains("stills: intensity 1.5 is outside [0, 1]"), "{e}");
+        let e = err("[[group]]\nname = \"g\"\nexpressions = [\"12\"]\nstills = [0.5]\nidentity = \"xx9\"\n");
+        assert!(e.starts_with("group 1 \"g\"") && e.contains("identity \"xx9\" is not known"), "{e}");
+        let e = SetSpec::from_toml("name = \"t\"\nseed = 1\nidentities = [\"wm1\", \"zz\"]\n[[group]]\nname = \"g\"\nexpressions = [\"1\"]\nstills = [1]\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("identity \"zz\" is not known"), "{e}");
+        let e = err("[[group]]\nname = \"g\"\nemotions = [\"joy\"]\nstills = [1]\n");
+        assert!(e.contains("item 1 (\"joy\")") && e.contains("not in the EmFACS table"), "{e}");
+        let e = err("[[group]]\nname = \"g\"\nexpressions = [\"1\"]\naus = \"hapfacs\"\nstills = [1]\n");
+        assert!(e.contains("exactly one of"), "{e}");
+        let e = err("[[group]]\nname = \"g\"\nexpressions = [\"1\"]\nstils = [1]\n");
+        assert!(e.contains("unknown field"), "{e}");
+    }
+}

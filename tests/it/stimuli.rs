@@ -1,0 +1,370 @@
+//! Dynamic stimuli and stimulus sets through the real CLI: `facslab render --video/--timeline`
+//! and `facslab stimuli build`, on tiny sets (64×64, 0.3-s clips) so they run in seconds.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use facslab::engine::identity::IdentityTable;
+use facslab::engine::timeline::Timeline;
+use facslab::engine::{FrameSettings, render_still};
+use facslab::facs::{Activation, AuCode, Catalog, Expression, Intensity, Laterality};
+use facslab::stimuli::ManifestRow;
+
+use crate::cli::{facslab, facslab_ok, stderr};
+
+/// A tiny set: an AU clip with its still at the peak, a one-sided combination, an emotion at
+/// 50 %, and a CPT sequence; every frame also written as PNG.
+const TINY: &str = r#"
+name = "tiny"
+seed = 99
+size = [64, 64]
+fps = 30
+png_frames = true
+
+[[group]]
+name = "AU"
+expressions = ["12"]
+video_peaks = [1.0]
+stills = [1.0, 0.3]
+timing = { onset_s = 0.1, apex_s = 0.1, offset_s = 0.1 }
+identity = "bf1"
+
+[[group]]
+name = "one-sided"
+expressions = ["L12C+R14"]
+video_peaks = [0.8]
+stills = [0.8]
+timing = { onset_s = 0.1, apex_s = 0.1, offset_s = 0.1, ramp = "cosine" }
+identity = "wm2"
+
+[[group]]
+name = "emotion"
+emotions = ["surprise"]
+stills = [0.5]
+
+[[group]]
+name = "cpt"
+cpt = ["novelty"]
+video_peaks = [1.0]
+timing = { onset_s = 0.05, apex_s = 0.05, offset_s = 0.05 }
+"#;
+
+fn build(dir: &Path, spec: &str, out: &str) -> Vec<ManifestRow> {
+    build_with_jobs(dir, spec, out, "2")
+}
+
+fn build_with_jobs(dir: &Path, spec: &str, out: &str, jobs: &str) -> Vec<ManifestRow> {
+    std::fs::write(dir.join("spec.toml"), spec).unwrap();
+    facslab_ok(dir, &["stimuli", "build", "spec.toml", "-o", out, "--jobs", jobs]);
+    let text = std::fs::read_to_string(dir.join(out).join("manifest.json")).unwrap();
+    serde_json::from_str(&text).unwrap()
+}
+
+/// Every file under `root`, relative path → bytes.
+fn files(root: &Path) -> BTreeMap<String, Vec<u8>> {
+    let mut out = BTreeMap::new();
+    let mut stack = vec![root.to_path_buf()];
+    while let Some(dir) = stack.pop() {
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                stack.push(path);
+            } else {
+                let rel = path.strip_prefix(root).unwrap().to_string_lossy().into_owned();
+                out.insert(rel, std::fs::read(&path).unwrap());
+            }
+        }
+    }
+    out
+}
+
+fn rgb(png: &[u8]) -> (u32, u32, Vec<u8>) {
+    let decoder = png::Decoder::new(std::io::Cursor::new(png));
+    let mut reader = decoder.read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    buf.truncate(info.buffer_size());
+    (info.width, info.height, buf)
+}
+
+#[test]
+fn stimuli_same_spec_and_seed_give_identical_bytes_on_any_jobs_and_a_rebuild_skips_everything() {
+    let dir = tempfile::tempdir().unwrap();
+    let rows = build(dir.path(), TINY, "a");
+    build_with_jobs(dir.path(), TINY, "b", "1");
+    let (a, b) = (files(&dir.path().join("a")), files(&dir.path().join("b")));
+    assert_eq!(a.keys().collect::<Vec<_>>(), b.keys().collect::<Vec<_>>());
+    for (name, bytes) in &a {
+        assert!(b[name] == *bytes, "{name} differs between two builds");
+    }
+    // Manifest: exact columns, sha256 of each file, video sizes padded to even.
+    let csv = String::from_utf8(a["manifest.csv"].clone()).unwrap();
+    assert_eq!(
+        csv.lines().next().unwrap(),
+        "stimulus_id,media,file,identity,expression,emotion,intensity,onset_s,apex_s,offset_s,frames,fps,width,height,sha256,set_seed,engine_version"
+    );
+    assert_eq!(rows.len(), 7);
+    assert_eq!(csv.lines().count(), 8);
+    for row in &rows {
+        use sha2::Digest;
+        assert_eq!(hex::encode(sha2::Sha256::digest(&a[&row.file])), row.sha256, "{}", row.file);
+        assert_eq!(row.set_seed, 99);
+    }
+    for row in &rows {
+        facslab::facs::Catalog::built_in().parse(&row.expression).unwrap_or_else(|e| panic!("{}: {e}", row.expression));
+    }
+    let video = rows.iter().find(|r| r.media == "video").unwrap();
+    assert_eq!((video.frames, video.fps, video.width, video.height), (Some(9), Some(30), 64, 64));
+
+    // A second build into the same directory renders nothing and changes nothing.
+    let out = facslab_ok(dir.path(), &["stimuli", "build", "spec.toml", "-o", "a"]);
+    assert!(stderr(&out).contains("(0 rendered, 7 up to date"), "{}", stderr(&out));
+    assert_eq!(files(&dir.path().join("a")), a);
+    // A damaged media file is noticed (sha256) and rendered again.
+    std::fs::write(dir.path().join("a").join(&video.file), b"broken").unwrap();
+    let out = facslab_ok(dir.path(), &["stimuli", "build", "spec.toml", "-o", "a"]);
+    assert!(stderr(&out).contains("(1 rendered, 6 up to date"), "{}", stderr(&out));
+    assert_eq!(files(&dir.path().join("a")), a);
+}
+
+#[test]
+fn stimuli_names_and_ids_reveal_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let rows = build(dir.path(), TINY, "set");
+    for row in &rows {
+        assert_eq!(row.stimulus_id.len(), 16);
+        assert!(row.stimulus_id.chars().all(|c| c.is_ascii_hexdigit()), "{}", row.stimulus_id);
+        let ext = if row.media == "video" { "mp4" } else { "png" };
+        assert_eq!(row.file, format!("media/{}.{ext}", row.stimulus_id));
+    }
+    for name in files(&dir.path().join("set")).keys() {
+        let stem = Path::new(name).file_stem().unwrap().to_string_lossy().into_owned();
+        let ok = name.starts_with("manifest.")
+            || rows.iter().any(|r| name.contains(&r.stimulus_id))
+            || stem.chars().all(|c| c.is_ascii_digit());
+        assert!(ok, "{name} is not an opaque name");
+    }
+}
+
+#[test]
+fn stimuli_apex_frame_equals_the_still_and_ground_truth_matches_each_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let rows = build(dir.path(), TINY, "set");
+    let set = dir.path().join("set");
+    let catalog = Catalog::built_in();
+    // Clips only: a CPT sequence has no single apex.
+    for video in rows.iter().filter(|r| r.media == "video" && r.emotion != "novelty") {
+        let still = rows
+            .iter()
+            .find(|r| r.media == "image" && r.identity == video.identity && r.intensity == video.intensity)
+            .unwrap_or_else(|| panic!("no still for {}", video.expression));
+        assert_eq!(still.expression, video.expression);
+        let apex_frame = ((video.onset_s.unwrap() + video.apex_s.unwrap() / 2.0) * video.fps.unwrap() as f64).round() as usize;
+        let frame = std::fs::read(set.join(format!("frames/{}/{apex_frame:06}.png", video.stimulus_id))).unwrap();
+        let still_png = std::fs::read(set.join(&still.file)).unwrap();
+        assert_eq!(rgb(&frame), rgb(&still_png), "apex frame {apex_frame} of {} differs from its still", video.expression);
+    }
+
+    for video in rows.iter().filter(|r| r.media == "video") {
+        let id = &video.stimulus_id;
+        let timeline = Timeline::from_json(&std::fs::read_to_string(set.join(format!("timelines/{id}.json"))).unwrap()).unwrap();
+        let csv = std::fs::read_to_string(set.join(format!("ground_truth/{id}.csv"))).unwrap();
+        let mut lines = csv.lines();
+        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+        assert_eq!(&header[..2], ["frame", "time_s"]);
+        let mut count = 0;
+        for (f, line) in lines.enumerate() {
+            count += 1;
+            let fields: Vec<&str> = line.split(',').collect();
+            assert_eq!(fields[0].parse::<usize>().unwrap(), f);
+            assert_eq!(fields[1].parse::<f64>().unwrap(), timeline.time_of(f));
+            // The CSV's intensities are the timeline's …
+            let mut activations = Vec::new();
+            for (column, value) in header[2..].iter().zip(&fields[2..]) {
+                let value: f64 = value.parse().unwrap();
+                let (au, side) = parse_column(column);
+                let expected = timeline.values_at(timeline.time_of(f)).into_iter().find(|(c, _)| *c == (au, side)).unwrap().1;
+                assert_eq!(value, expected, "{id} frame {f} {column}");
+                if value > 0.0 {
+                    activations.push(Activation { au, side, intensity: Some(Intensity::Fraction(value)) });
+                }
+            }
+            // … and the frame on disk is the still of exactly those intensities.
+            let ordered = order_like(&activations, &timeline);
+            let expression = Expression::from_activations(ordered, catalog).unwrap();
+            let identity = IdentityTable::built_in().get(&video.identity).unwrap();
+            let image = render_still(&expression, identity, FrameSettings { width: 64, height: 64, threads: Some(1) }).unwrap();
+            let frame = std::fs::read(set.join(format!("frames/{id}/{f:06}.png"))).unwrap();
+            assert_eq!(rgb(&frame).2, image.data, "{id} frame {f} was not rendered with the ground truth's intensities");
+        }
+        assert_eq!(Some(count), video.frames);
+    }
+}
+
+/// The CSV orders columns by AU; the renderer sums in the timeline's order.
+fn order_like(activations: &[Activation], timeline: &Timeline) -> Vec<Activation> {
+    timeline.channels().iter().filter_map(|&(au, side)| activations.iter().find(|a| a.au == au && a.side == side).copied()).collect()
+}
+
+fn parse_column(column: &str) -> (AuCode, Laterality) {
+    let body = column.strip_prefix("AU").unwrap().strip_suffix("_r").unwrap();
+    let (digits, side) = match body.chars().last().unwrap() {
+        'L' => (&body[..body.len() - 1], Laterality::Left),
+        'R' => (&body[..body.len() - 1], Laterality::Right),
+        _ => (body, Laterality::Both),
+    };
+    (AuCode(digits.parse().unwrap()), side)
+}
+
+#[test]
+fn stimuli_timeline_export_and_reload_gives_identical_frames() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    facslab_ok(
+        d,
+        &[
+            "render", "1+L12C", "--video", "--onset", "0.1", "--apex", "0.1", "--offset", "0.1", "--ramp", "smoothstep", "--size", "64x64",
+            "--identity", "wf2", "-o", "a.mp4", "--export-timeline", "t.json", "--frames", "fa", "--poster", "pa.png",
+        ],
+    );
+    facslab_ok(d, &["render", "--timeline", "t.json", "-o", "b.mp4", "--frames", "fb", "--poster", "pb.png"]);
+    let (fa, fb) = (files(&d.join("fa")), files(&d.join("fb")));
+    assert_eq!(fa.len(), 9);
+    assert_eq!(fa, fb);
+    assert_eq!(std::fs::read(d.join("a.mp4")).unwrap(), std::fs::read(d.join("b.mp4")).unwrap());
+    assert_eq!(std::fs::read(d.join("pa.png")).unwrap(), fa["000000.png"]);
+    let t = Timeline::from_json(&std::fs::read_to_string(d.join("t.json")).unwrap()).unwrap();
+    assert_eq!((t.identity.as_str(), t.size, t.fps, t.tracks.len()), ("wf2", [64, 64], 30, 6));
+}
+
+#[test]
+fn stimuli_a_3_second_clip_decodes_to_90_bt601_frames() {
+    let dir = tempfile::tempdir().unwrap();
+    facslab_ok(dir.path(), &["render", "12", "--video", "--size", "63x64", "-o", "v.mp4"]);
+    let probe = std::process::Command::new("ffprobe")
+        .args(["-v", "error", "-count_frames", "-select_streams", "v:0", "-show_entries"])
+        .arg("stream=codec_name,width,height,nb_read_frames,r_frame_rate,color_range,color_space,color_transfer,color_primaries")
+        .args(["-of", "default=noprint_wrappers=1", "v.mp4"])
+        .current_dir(dir.path())
+        .output();
+    let Ok(probe) = probe else {
+        eprintln!("skipped: ffprobe is not installed (apt-get install ffmpeg)");
+        return;
+    };
+    assert!(probe.status.success(), "{}", String::from_utf8_lossy(&probe.stderr));
+    let text = String::from_utf8_lossy(&probe.stdout);
+    for expected in [
+        "codec_name=h264",
+        "width=64",
+        "height=64",
+        "nb_read_frames=90",
+        "r_frame_rate=30/1",
+        "color_range=tv",
+        "color_space=smpte170m",
+        "color_transfer=smpte170m",
+        "color_primaries=smpte170m",
+    ] {
+        assert!(text.lines().any(|l| l == expected), "ffprobe lacks {expected}:\n{text}");
+    }
+}
+
+#[test]
+fn stimuli_bad_specs_fail_before_rendering_and_name_the_entry() {
+    let dir = tempfile::tempdir().unwrap();
+    let good = "name = \"bad\"\nseed = 1\nsize = [32, 32]\n[[group]]\nname = \"fine\"\nexpressions = [\"1\"]\nstills = [1]\n";
+    let cases = [
+        ("[[group]]\nname = \"combos\"\nexpressions = [\"1+2\", \"4+99\"]\nstills = [1]\n", "group 2 \"combos\", item 2 (\"4+99\")", "AU 99 is not in the catalog"),
+        ("[[group]]\nname = \"clips\"\nexpressions = [\"12\"]\nvideo_peaks = [1]\ntiming = { onset_s = 1.0, apex_s = -0.5, offset_s = 1.0 }\n", "group 2 \"clips\"", "negative"),
+        ("[[group]]\nname = \"strong\"\nexpressions = [\"12\"]\nvideo_peaks = [1.2]\n", "group 2 \"strong\"", "1.2 is outside [0, 1]"),
+        ("[[group]]\nname = \"who\"\nexpressions = [\"12\"]\nstills = [1]\nidentity = \"wm9\"\n", "group 2 \"who\"", "identity \"wm9\" is not known"),
+    ];
+    for (i, (group, entry, message)) in cases.iter().enumerate() {
+        let spec = format!("spec{i}.toml");
+        std::fs::write(dir.path().join(&spec), format!("{good}{group}")).unwrap();
+        let out_dir = format!("out{i}");
+        let output = facslab(dir.path(), &["stimuli", "build", &spec, "-o", &out_dir]);
+        assert!(!output.status.success(), "case {i} built");
+        let err = stderr(&output);
+        assert!(err.contains(entry) && err.contains(message), "case {i}: {err}");
+        assert!(!dir.path().join(&out_dir).exists(), "case {i} wrote files before failing");
+        let check = facslab(dir.path(), &["stimuli", "check", &spec]);
+        assert!(!check.status.success() && stderr(&check).contains(entry));
+    }
+}
+
+#[test]
+fn stimuli_shipped_specs_validate() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("stimuli/sets");
+    for (name, expected) in [
+        ("exp1.toml", "exp1: 196 stimuli (49 videos, 147 images)"),
+        ("exp2.toml", "exp2: 108 stimuli (54 videos, 54 images)"),
+        ("exp3.toml", "exp3: 40 stimuli (20 videos, 20 images)"),
+        ("cpt.toml", "cpt: 7 stimuli (7 videos, 0 images)"),
+        ("demo.toml", "demo: 10 stimuli (2 videos, 8 images)"),
+    ] {
+        let out = facslab_ok(dir.path(), &["stimuli", "check", root.join(name).to_str().unwrap()]);
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(text.starts_with(expected), "{name}: {text}");
+    }
+}
+
+/// Acceptance: the MP4 plays to the end in headless Chromium (`<video>` fires `ended`).
+#[test]
+fn stimuli_mp4_plays_to_the_end_in_headless_chromium() {
+    let dir = tempfile::tempdir().unwrap();
+    facslab_ok(dir.path(), &["render", "12", "--video", "--onset", "0.3", "--apex", "0.3", "--offset", "0.3", "--size", "63x64", "-o", "v.mp4"]);
+    let page = r#"<!doctype html><html><body><div id="status">loading</div>
+<video id="v" src="v.mp4" muted playsinline autoplay></video>
+<script>
+const v = document.getElementById('v'), s = document.getElementById('status');
+v.addEventListener('ended', () => { s.textContent = 'ended duration=' + v.duration; });
+v.addEventListener('error', () => { s.textContent = 'error ' + (v.error && v.error.code); });
+['loadedmetadata', 'playing', 'timeupdate'].forEach(n => v.addEventListener(n, () => {
+  if (!s.textContent.startsWith('ended')) s.textContent = n + ' t=' + v.currentTime; }));
+v.play().catch(e => { s.textContent = 'play failed ' + e; });
+</script></body></html>"#;
+    std::fs::write(dir.path().join("play.html"), page).unwrap();
+    let url = format!("file://{}", dir.path().join("play.html").display());
+    // Virtual time runs the page fast, but a loaded machine can still starve the media
+    // pipeline: give it a generous budget and a few tries before calling it a failure.
+    let mut last = String::new();
+    for _attempt in 0..3 {
+        let browser = ["chromium", "chromium-browser", "google-chrome"].into_iter().find_map(|name| {
+            std::process::Command::new(name)
+                .args(["--headless", "--no-sandbox", "--disable-gpu", "--autoplay-policy=no-user-gesture-required"])
+                .args(["--virtual-time-budget=30000", "--dump-dom", &url])
+                .output()
+                .ok()
+        });
+        let Some(output) = browser else {
+            eprintln!("skipped: no chromium found (apt-get install chromium)");
+            return;
+        };
+        last = String::from_utf8_lossy(&output.stdout).into_owned();
+        if last.contains("<div id=\"status\">ended duration=0.9</div>") {
+            return;
+        }
+    }
+    panic!("the video did not play to the end:\n{last}");
+}
+
+/// The AV1 fallback (cargo feature `av1`): decodes to every frame, tagged BT.601 limited range.
+#[cfg(feature = "av1")]
+#[test]
+fn stimuli_av1_fallback_decodes_to_every_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    facslab_ok(dir.path(), &["render", "12", "--video", "--onset", "0.3", "--apex", "0.3", "--offset", "0.3", "--size", "63x64", "--codec", "av1", "-o", "a.mp4"]);
+    let Ok(probe) = std::process::Command::new("ffprobe")
+        .args(["-v", "error", "-count_frames", "-show_entries", "stream=codec_name,width,nb_read_frames,color_range,color_space", "-of", "default=nw=1", "a.mp4"])
+        .current_dir(dir.path())
+        .output()
+    else {
+        eprintln!("skipped: ffprobe is not installed (apt-get install ffmpeg)");
+        return;
+    };
+    let text = String::from_utf8_lossy(&probe.stdout);
+    for expected in ["codec_name=av1", "width=64", "nb_read_frames=27", "color_range=tv", "color_space=smpte170m"] {
+        assert!(text.lines().any(|l| l == expected), "ffprobe lacks {expected}:\n{text}");
+    }
+}
