@@ -29,7 +29,7 @@ use serde::Serialize;
 use super::coding::Maybe;
 use super::manifest::{Manifest, Media};
 use super::responses::{Responses, Scale};
-use super::stats::anova::{AnovaTable, SsType, two_way};
+use super::stats::anova::{AnovaTable, SsType, TwoWayCells, two_way_cells};
 use super::stats::binomial::{Alternative, binomial_test};
 use super::stats::classification::ConfusionMatrix;
 use super::stats::hit_rate::unbiased_hit_rates;
@@ -401,31 +401,42 @@ pub fn analyze(manifest: &Manifest, responses: &Responses) -> Option<RatingRepor
     // Two-way ANOVA per media: emotion × intensity.
     let mut anova = Vec::new();
     for media in [Media::Video, Media::Image] {
-        let mut fit = |outcome: &str, a: Vec<String>, b: Vec<String>, y: Vec<f64>| {
-            if y.is_empty() {
+        let mut fit = |outcome: &str, cells: TwoWayCells| {
+            if cells.n() == 0 {
                 return;
             }
-            let run = |t| two_way(&a, &b, &y, t).map_err(|e| e.to_string());
-            anova.push(Anova { media, outcome: outcome.into(), a: "emotion", b: "intensity", n: y.len(), type_ii: run(SsType::II), type_iii: run(SsType::III) });
+            let run = |t| two_way_cells(&cells, t).map_err(|e| e.to_string());
+            anova.push(Anova { media, outcome: outcome.into(), a: "emotion", b: "intensity", n: cells.n(), type_ii: run(SsType::II), type_iii: run(SsType::III) });
         };
-        let (mut a, mut b, mut y) = (Vec::new(), Vec::new(), Vec::new());
-        for e in responses.emotions.iter().filter(|e| manifest.stimuli[e.stimulus].media == media) {
-            if let Some(t) = stim_label(e.stimulus) {
-                a.push(labels[t].clone());
-                b.push(format!("{}%", manifest.stimuli[e.stimulus].intensity_percent()));
-                y.push(if t == to_display[e.label] { 1.0 } else { 0.0 });
+        // Factor levels: the labels and the intensities (in whole percent) of the stimuli.
+        let intensities: Vec<u32> = {
+            let mut v: Vec<u32> = manifest.stimuli.iter().map(|s| s.intensity_percent()).collect();
+            v.sort_unstable();
+            v.dedup();
+            v
+        };
+        let intensity_names: Vec<String> = intensities.iter().map(|i| format!("{i}%")).collect();
+        let level_of: Vec<Option<(usize, usize)>> = (0..manifest.len())
+            .map(|s| {
+                let st = &manifest.stimuli[s];
+                let t = stim_label(s).filter(|_| st.media == media)?;
+                Some((t, intensities.binary_search(&st.intensity_percent()).expect("listed above")))
+            })
+            .collect();
+        let mut cells = TwoWayCells::with_levels(labels.clone(), intensity_names.clone());
+        for e in &responses.emotions {
+            if let Some((t, i)) = level_of[e.stimulus] {
+                cells.add(t, i, if t == to_display[e.label] { 1.0 } else { 0.0 });
             }
         }
-        fit("recognition", a, b, y);
-        let (mut a, mut b, mut y) = (Vec::new(), Vec::new(), Vec::new());
-        for r in responses.ratings.iter().filter(|r| r.scale == Scale::Believability && manifest.stimuli[r.stimulus].media == media) {
-            if let Some(t) = stim_label(r.stimulus) {
-                a.push(labels[t].clone());
-                b.push(format!("{}%", manifest.stimuli[r.stimulus].intensity_percent()));
-                y.push(r.value);
+        fit("recognition", cells);
+        let mut cells = TwoWayCells::with_levels(labels.clone(), intensity_names);
+        for r in responses.ratings.iter().filter(|r| r.scale == Scale::Believability) {
+            if let Some((t, i)) = level_of[r.stimulus] {
+                cells.add(t, i, r.value);
             }
         }
-        fit("believability", a, b, y);
+        fit("believability", cells);
     }
 
     // Table 14: this study's image conditions beside the published figures.
