@@ -20,7 +20,7 @@
 use std::collections::HashMap;
 use std::path::Path;
 
-use super::input::{CsvInput, InputError, Place};
+use super::input::{CsvInput, FxHashMap, InputError, Place, field};
 use super::manifest::Manifest;
 use crate::facs::{Catalog, EmotionTable, Expression};
 
@@ -119,6 +119,24 @@ enum Measure {
     Education,
 }
 
+impl Measure {
+    /// Measures given per stimulus (the rest are about the participant).
+    const STIMULUS_MEASURES: u64 = 6;
+
+    /// A dense index in `0..STIMULUS_MEASURES` for the measures given per stimulus.
+    fn slot(self) -> u64 {
+        match self {
+            Measure::Aus => 0,
+            Measure::Emotion => 1,
+            Measure::Scale(Scale::Believability) => 2,
+            Measure::Scale(Scale::DescriptionMatch) => 3,
+            Measure::Scale(Scale::Q1) => 4,
+            Measure::Scale(Scale::Q2) => 5,
+            _ => unreachable!("only measures about a stimulus are keyed"),
+        }
+    }
+}
+
 fn measure(text: &str) -> Option<Measure> {
     Some(match text {
         "aus" => Measure::Aus,
@@ -166,11 +184,18 @@ impl Responses {
             ..Responses::default()
         };
         let label_index: HashMap<String, usize> = out.emotion_labels.iter().cloned().enumerate().map(|(i, l)| (l, i)).collect();
-        let mut participant_index: HashMap<String, usize> = HashMap::new();
-        let mut group_index: HashMap<String, usize> = HashMap::new();
-        let mut seen: HashMap<(usize, usize, Measure), u64> = HashMap::new();
+        // Ids are interned: each distinct participant, group and stimulus id is hashed into its
+        // index once per run of equal ids (rows of one participant and one stimulus are usually
+        // adjacent), and never copied per row.
+        let mut participant_index: FxHashMap<Box<str>, usize> = FxHashMap::default();
+        let mut group_index: FxHashMap<Box<str>, usize> = FxHashMap::default();
+        let (mut last_pid, mut last_p) = (Vec::<u8>::new(), usize::MAX);
+        let (mut last_sid, mut last_s) = (Vec::<u8>::new(), usize::MAX);
+        // (participant, stimulus, measure) packed into one integer → the row that gave it.
+        let mut seen: FxHashMap<u64, u64> = FxHashMap::default();
+        let n_stimuli = manifest.len() as u64;
         let mut aus_cache: HashMap<String, Expression> = HashMap::new();
-        // `for_each` borrows the reader mutably; errors are built from a copy of the file name.
+        // `for_each_bytes` borrows the reader mutably; errors are built from a copy of the file name.
         let file = input.file.clone();
         let cell = |place: Place, column: &str, problem: String| InputError::Cell {
             file: file.clone(),
@@ -179,41 +204,56 @@ impl Responses {
             column: column.to_string(),
             problem,
         };
-        out.rows = input.for_each(|r, place| {
-            let pid = r[c_part].trim();
+        macro_rules! text {
+            ($r:expr, $c:expr, $name:expr, $place:expr) => {
+                field($r, $c).map_err(|()| cell($place, $name, "not valid UTF-8".into()))
+            };
+        }
+        out.rows = input.for_each_bytes(|r, place| {
+            let pid = text!(r, c_part, "participant_id", place)?;
             if pid.is_empty() {
                 return Err(cell(place, "participant_id", "empty participant id".into()));
             }
-            let group = r[c_group].trim();
+            let group = text!(r, c_group, "group", place)?;
             if group.is_empty() {
                 return Err(cell(place, "group", "empty group".into()));
             }
-            let g = match group_index.get(group) {
-                Some(&g) => g,
-                None => {
-                    out.groups.push(group.to_string());
-                    group_index.insert(group.to_string(), out.groups.len() - 1);
-                    out.groups.len() - 1
-                }
-            };
-            let p = match participant_index.get(pid) {
-                Some(&p) => {
-                    if out.participants[p].group != g {
-                        return Err(cell(
-                            place,
-                            "group",
-                            format!("participant \"{pid}\" is in group \"{}\" on an earlier row", out.groups[out.participants[p].group]),
-                        ));
+            let g = if last_p != usize::MAX && out.groups[out.participants[last_p].group] == group {
+                out.participants[last_p].group
+            } else {
+                match group_index.get(group) {
+                    Some(&g) => g,
+                    None => {
+                        out.groups.push(group.to_string());
+                        group_index.insert(group.into(), out.groups.len() - 1);
+                        out.groups.len() - 1
                     }
-                    p
-                }
-                None => {
-                    out.participants.push(Participant { id: pid.to_string(), group: g, ..Participant::default() });
-                    participant_index.insert(pid.to_string(), out.participants.len() - 1);
-                    out.participants.len() - 1
                 }
             };
-            let m_text = r[c_measure].trim();
+            let p = if last_p != usize::MAX && last_pid == pid.as_bytes() {
+                last_p
+            } else {
+                let p = match participant_index.get(pid) {
+                    Some(&p) => p,
+                    None => {
+                        out.participants.push(Participant { id: pid.to_string(), group: g, ..Participant::default() });
+                        participant_index.insert(pid.into(), out.participants.len() - 1);
+                        out.participants.len() - 1
+                    }
+                };
+                last_pid.clear();
+                last_pid.extend_from_slice(pid.as_bytes());
+                last_p = p;
+                p
+            };
+            if out.participants[p].group != g {
+                return Err(cell(
+                    place,
+                    "group",
+                    format!("participant \"{pid}\" is in group \"{}\" on an earlier row", out.groups[out.participants[p].group]),
+                ));
+            }
+            let m_text = text!(r, c_measure, "measure", place)?;
             let m = measure(m_text).ok_or_else(|| {
                 cell(
                     place,
@@ -221,16 +261,16 @@ impl Responses {
                     format!("unknown measure \"{m_text}\" (aus, emotion, believability, description_match, q1, q2, age, gender, ethnicity, education)"),
                 )
             })?;
-            let trial = r[c_trial].trim();
+            let trial = text!(r, c_trial, "trial", place)?;
             if !trial.is_empty() && trial.parse::<u64>().is_err() {
                 return Err(cell(place, "trial", format!("\"{trial}\" is not a whole number")));
             }
-            let rt = r[c_rt].trim();
+            let rt = text!(r, c_rt, "rt_ms", place)?;
             if !rt.is_empty() && !rt.parse::<f64>().is_ok_and(|v| v.is_finite() && v >= 0.0) {
                 return Err(cell(place, "rt_ms", format!("\"{rt}\" is not a non-negative number of milliseconds")));
             }
-            let value = r[c_value].trim();
-            let sid = r[c_stim].trim();
+            let value = text!(r, c_value, "value", place)?;
+            let sid = text!(r, c_stim, "stimulus_id", place)?;
             let demographic = matches!(m, Measure::Age | Measure::Gender | Measure::Ethnicity | Measure::Education);
             if demographic {
                 if !sid.is_empty() {
@@ -255,10 +295,19 @@ impl Responses {
             if sid.is_empty() {
                 return Err(cell(place, "stimulus_id", format!("measure \"{m_text}\" needs a stimulus id")));
             }
-            let s = manifest
-                .position(sid)
-                .ok_or_else(|| cell(place, "stimulus_id", format!("unknown stimulus id \"{sid}\" (not in the manifest)")))?;
-            if let Some(first) = seen.insert((p, s, m), place.row) {
+            let s = if last_s != usize::MAX && last_sid == sid.as_bytes() {
+                last_s
+            } else {
+                let s = manifest
+                    .position(sid)
+                    .ok_or_else(|| cell(place, "stimulus_id", format!("unknown stimulus id \"{sid}\" (not in the manifest)")))?;
+                last_sid.clear();
+                last_sid.extend_from_slice(sid.as_bytes());
+                last_s = s;
+                s
+            };
+            let key = (p as u64 * n_stimuli + s as u64) * Measure::STIMULUS_MEASURES + m.slot();
+            if let Some(first) = seen.insert(key, place.row) {
                 return Err(cell(place, "measure", format!("participant \"{pid}\" already gave \"{m_text}\" for stimulus \"{sid}\" on row {first}")));
             }
             match m {
