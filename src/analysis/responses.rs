@@ -135,6 +135,25 @@ impl Measure {
             _ => unreachable!("only measures about a stimulus are keyed"),
         }
     }
+
+    /// The measure's name for a [`Measure::slot`].
+    fn slot_name(slot: u64) -> &'static str {
+        ["aus", "emotion", "believability", "description_match", "q1", "q2"][slot as usize]
+    }
+}
+
+/// One judgement about a stimulus, for the duplicate check.
+#[derive(Clone, Copy)]
+struct Judgement {
+    key: u64,
+    row: u64,
+    line: u64,
+}
+
+/// The first judgement (in file order) that repeats an earlier one, with that earlier one.
+fn first_duplicate(judgements: &mut [Judgement]) -> Option<(Judgement, Judgement)> {
+    judgements.sort_unstable_by_key(|j| (j.key, j.row));
+    judgements.windows(2).filter(|w| w[0].key == w[1].key).map(|w| (w[0], w[1])).min_by_key(|(_, dup)| dup.row)
 }
 
 fn measure(text: &str) -> Option<Measure> {
@@ -191,8 +210,10 @@ impl Responses {
         let mut group_index: FxHashMap<Box<str>, usize> = FxHashMap::default();
         let (mut last_pid, mut last_p) = (Vec::<u8>::new(), usize::MAX);
         let (mut last_sid, mut last_s) = (Vec::<u8>::new(), usize::MAX);
-        // (participant, stimulus, measure) packed into one integer → the row that gave it.
-        let mut seen: FxHashMap<u64, u64> = FxHashMap::default();
+        // Every judgement as (participant, stimulus, measure) packed into one integer, with its
+        // row and line; duplicates are found by sorting once at the end (or at the first other
+        // error, so the error reported is still the first one in file order).
+        let mut judgements: Vec<Judgement> = Vec::new();
         let n_stimuli = manifest.len() as u64;
         let mut aus_cache: HashMap<String, Expression> = HashMap::new();
         // `for_each_bytes` borrows the reader mutably; errors are built from a copy of the file name.
@@ -209,7 +230,7 @@ impl Responses {
                 field($r, $c).map_err(|()| cell($place, $name, "not valid UTF-8".into()))
             };
         }
-        out.rows = input.for_each_bytes(|r, place| {
+        let read = input.for_each_bytes(|r, place| {
             let pid = text!(r, c_part, "participant_id", place)?;
             if pid.is_empty() {
                 return Err(cell(place, "participant_id", "empty participant id".into()));
@@ -307,9 +328,7 @@ impl Responses {
                 s
             };
             let key = (p as u64 * n_stimuli + s as u64) * Measure::STIMULUS_MEASURES + m.slot();
-            if let Some(first) = seen.insert(key, place.row) {
-                return Err(cell(place, "measure", format!("participant \"{pid}\" already gave \"{m_text}\" for stimulus \"{sid}\" on row {first}")));
-            }
+            judgements.push(Judgement { key, row: place.row, line: place.line });
             match m {
                 Measure::Aus => {
                     let aus = match aus_cache.get(value) {
@@ -338,7 +357,17 @@ impl Responses {
                 _ => unreachable!("demographic measures returned above"),
             }
             Ok(())
-        })?;
+        });
+        if let Some((first, dup)) = first_duplicate(&mut judgements) {
+            let (p, s, m) = (dup.key / (n_stimuli * Measure::STIMULUS_MEASURES), (dup.key / Measure::STIMULUS_MEASURES) % n_stimuli, dup.key % Measure::STIMULUS_MEASURES);
+            let (pid, sid, m_text) = (&out.participants[p as usize].id, &manifest.stimuli[s as usize].id, Measure::slot_name(m));
+            return Err(cell(
+                Place { row: dup.row, line: dup.line },
+                "measure",
+                format!("participant \"{pid}\" already gave \"{m_text}\" for stimulus \"{sid}\" on row {}", first.row),
+            ));
+        }
+        out.rows = read?;
         Ok(out)
     }
 
@@ -405,6 +434,12 @@ mod tests {
         assert!(e.contains("row 2 (line 3), column \"group\""), "{e}");
         let e = error("p1,a,s2,1,emotion,fear,\np1,a,s2,1,emotion,anger,\n");
         assert!(e.contains("already gave"), "{e}");
+        assert!(e.contains("row 2 (line 3), column \"measure\": participant \"p1\" already gave \"emotion\" for stimulus \"s2\" on row 1"), "{e}");
+        // The first error in file order wins, also when the duplicate is found late.
+        let e = error("p1,a,s2,1,q1,3,\np1,a,s1,1,q1,3,\np1,a,s2,1,q1,4,\np1,a,s1,1,q1,5,\np2,a,s9,1,q1,3,\n");
+        assert!(e.contains("row 3 (line 4), column \"measure\"") && e.contains("on row 1"), "{e}");
+        let e = error("p1,a,s2,1,q1,3,\np1,a,s2,1,q1,9,\n");
+        assert!(e.contains("row 2 (line 3), column \"measure\""), "{e}");
         let e = error("p1,a,s2,x,emotion,fear,\n");
         assert!(e.contains("column \"trial\""), "{e}");
         let e = error("p1,a,s2,1,mood,fear,\n");
