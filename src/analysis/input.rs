@@ -46,6 +46,11 @@ impl CsvInput {
         Ok(Self { file: path.into(), reader, header })
     }
 
+    /// The header's column names.
+    pub fn header_names(&self) -> Vec<String> {
+        self.header.iter().map(str::to_owned).collect()
+    }
+
     /// The index of a required column.
     pub fn column(&self, column: &'static str) -> Result<usize, InputError> {
         self.header.iter().position(|h| h.trim() == column).ok_or_else(|| InputError::MissingColumn {
@@ -116,9 +121,30 @@ impl CsvInput {
     }
 }
 
-/// Cell `index` of a byte record as trimmed UTF-8, or `Err(())` when it is not UTF-8.
-pub(crate) fn field(record: &csv::ByteRecord, index: usize) -> Result<&str, ()> {
-    std::str::from_utf8(&record[index]).map(str::trim).map_err(|_| ())
+/// A byte record's cells as trimmed text, after one UTF-8 check of the whole record (rather than
+/// one per cell, or a copy into a `StringRecord`).
+pub(crate) struct Fields<'r> {
+    text: &'r str,
+    record: &'r csv::ByteRecord,
+}
+
+impl<'r> Fields<'r> {
+    /// The record's cells, or the index of the first cell that is not UTF-8.
+    pub fn new(record: &'r csv::ByteRecord) -> Result<Self, usize> {
+        match std::str::from_utf8(record.as_slice()) {
+            Ok(text) => Ok(Fields { text, record }),
+            Err(_) => Err((0..record.len()).find(|&i| std::str::from_utf8(&record[i]).is_err()).unwrap_or(0)),
+        }
+    }
+
+    /// Cell `index`, trimmed.
+    ///
+    /// # Panics
+    /// If `index` is out of range (callers use indices of header columns; rows have the
+    /// header's length because the reader is not flexible).
+    pub fn get(&self, index: usize) -> &'r str {
+        self.text[self.record.range(index).expect("cell index within the header")].trim()
+    }
 }
 
 /// FxHash (the rustc hasher): a multiply-rotate hash, much faster than SipHash on the short

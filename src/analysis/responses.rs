@@ -20,7 +20,7 @@
 use std::collections::HashMap;
 use std::path::Path;
 
-use super::input::{CsvInput, FxHashMap, InputError, Place, field};
+use super::input::{CsvInput, Fields, FxHashMap, InputError, Place};
 use super::manifest::Manifest;
 use crate::facs::{Catalog, EmotionTable, Expression};
 
@@ -225,17 +225,14 @@ impl Responses {
             column: column.to_string(),
             problem,
         };
-        macro_rules! text {
-            ($r:expr, $c:expr, $name:expr, $place:expr) => {
-                field($r, $c).map_err(|()| cell($place, $name, "not valid UTF-8".into()))
-            };
-        }
-        let read = input.for_each_bytes(|r, place| {
-            let pid = text!(r, c_part, "participant_id", place)?;
+        let header = input.header_names();
+        let read = input.for_each_bytes(|record, place| {
+            let r = Fields::new(record).map_err(|i| cell(place, header.get(i).map_or("?", String::as_str), "not valid UTF-8".into()))?;
+            let pid = r.get(c_part);
             if pid.is_empty() {
                 return Err(cell(place, "participant_id", "empty participant id".into()));
             }
-            let group = text!(r, c_group, "group", place)?;
+            let group = r.get(c_group);
             if group.is_empty() {
                 return Err(cell(place, "group", "empty group".into()));
             }
@@ -274,7 +271,7 @@ impl Responses {
                     format!("participant \"{pid}\" is in group \"{}\" on an earlier row", out.groups[out.participants[p].group]),
                 ));
             }
-            let m_text = text!(r, c_measure, "measure", place)?;
+            let m_text = r.get(c_measure);
             let m = measure(m_text).ok_or_else(|| {
                 cell(
                     place,
@@ -282,16 +279,16 @@ impl Responses {
                     format!("unknown measure \"{m_text}\" (aus, emotion, believability, description_match, q1, q2, age, gender, ethnicity, education)"),
                 )
             })?;
-            let trial = text!(r, c_trial, "trial", place)?;
+            let trial = r.get(c_trial);
             if !trial.is_empty() && trial.parse::<u64>().is_err() {
                 return Err(cell(place, "trial", format!("\"{trial}\" is not a whole number")));
             }
-            let rt = text!(r, c_rt, "rt_ms", place)?;
+            let rt = r.get(c_rt);
             if !rt.is_empty() && !rt.parse::<f64>().is_ok_and(|v| v.is_finite() && v >= 0.0) {
                 return Err(cell(place, "rt_ms", format!("\"{rt}\" is not a non-negative number of milliseconds")));
             }
-            let value = text!(r, c_value, "value", place)?;
-            let sid = text!(r, c_stim, "stimulus_id", place)?;
+            let value = r.get(c_value);
+            let sid = r.get(c_stim);
             let demographic = matches!(m, Measure::Age | Measure::Gender | Measure::Ethnicity | Measure::Education);
             if demographic {
                 if !sid.is_empty() {
@@ -446,6 +443,17 @@ mod tests {
         assert!(e.contains("unknown measure \"mood\""), "{e}");
         let e = error("");
         assert!(e.contains("no data rows"), "{e}");
+    }
+
+    #[test]
+    fn invalid_utf8_names_row_and_column() {
+        let (catalog, emotions) = (Catalog::built_in(), EmotionTable::built_in());
+        let manifest = Manifest::from_csv("m.csv", MANIFEST, catalog, &emotions).unwrap();
+        let mut bytes = format!("{HEADER}p1,a,s2,1,emotion,fear,\np2,a,s2,1,emotion,").into_bytes();
+        bytes.extend_from_slice(b"\xff\xfe,\n");
+        let input = CsvInput::from_reader(Path::new("r.csv"), Box::new(std::io::Cursor::new(bytes))).unwrap();
+        let e = Responses::parse(input, &manifest, catalog, &emotions).unwrap_err().to_string();
+        assert!(e.contains("row 2 (line 3), column \"value\": not valid UTF-8"), "{e}");
     }
 
     #[test]
