@@ -46,6 +46,11 @@ impl CsvInput {
         Ok(Self { file: path.into(), reader, header })
     }
 
+    /// The header's column names.
+    pub fn header_names(&self) -> Vec<String> {
+        self.header.iter().map(str::to_owned).collect()
+    }
+
     /// The index of a required column.
     pub fn column(&self, column: &'static str) -> Result<usize, InputError> {
         self.header.iter().position(|h| h.trim() == column).ok_or_else(|| InputError::MissingColumn {
@@ -79,6 +84,31 @@ impl CsvInput {
         Ok(row)
     }
 
+    /// Like [`Self::for_each`], over raw bytes (no per-row UTF-8 check or allocation); the
+    /// caller checks the cells it uses with [`field`].
+    pub fn for_each_bytes(
+        &mut self,
+        mut each: impl FnMut(&csv::ByteRecord, Place) -> Result<(), InputError>,
+    ) -> Result<u64, InputError> {
+        let mut record = csv::ByteRecord::new();
+        let mut row = 0;
+        loop {
+            match self.reader.read_byte_record(&mut record) {
+                Ok(false) => break,
+                Ok(true) => {
+                    row += 1;
+                    let line = record.position().map_or(row + 1, |p| p.line());
+                    each(&record, Place { row, line })?;
+                }
+                Err(e) => return Err(csv_error(&self.file, &e)),
+            }
+        }
+        if row == 0 {
+            return Err(InputError::Empty { file: self.file.clone() });
+        }
+        Ok(row)
+    }
+
     /// An error about one cell.
     pub fn cell(&self, place: Place, column: &str, problem: impl Into<String>) -> InputError {
         InputError::Cell {
@@ -90,6 +120,91 @@ impl CsvInput {
         }
     }
 }
+
+/// A byte record's cells as trimmed text, after one UTF-8 check of the whole record (rather than
+/// one per cell, or a copy into a `StringRecord`).
+pub(crate) struct Fields<'r> {
+    text: &'r str,
+    record: &'r csv::ByteRecord,
+}
+
+impl<'r> Fields<'r> {
+    /// The record's cells, or the index of the first cell that is not UTF-8.
+    pub fn new(record: &'r csv::ByteRecord) -> Result<Self, usize> {
+        match std::str::from_utf8(record.as_slice()) {
+            Ok(text) => Ok(Fields { text, record }),
+            Err(_) => Err((0..record.len()).find(|&i| std::str::from_utf8(&record[i]).is_err()).unwrap_or(0)),
+        }
+    }
+
+    /// Cell `index`, trimmed.
+    ///
+    /// # Panics
+    /// If `index` is out of range (callers use indices of header columns; rows have the
+    /// header's length because the reader is not flexible).
+    pub fn get(&self, index: usize) -> &'r str {
+        self.text[self.record.range(index).expect("cell index within the header")].trim()
+    }
+}
+
+/// FxHash (the rustc hasher): a multiply-rotate hash, much faster than SipHash on the short
+/// keys of a response file (ids, packed indices). Not DoS-resistant, which a local analysis of
+/// the user's own files does not need.
+#[derive(Default, Clone, Copy)]
+pub(crate) struct FxHasher(u64);
+
+const FX_SEED: u64 = 0x51_7c_c1_b7_27_22_0a_95;
+
+impl FxHasher {
+    #[inline]
+    fn add(&mut self, word: u64) {
+        self.0 = (self.0.rotate_left(5) ^ word).wrapping_mul(FX_SEED);
+    }
+}
+
+impl std::hash::Hasher for FxHasher {
+    #[inline]
+    fn write(&mut self, bytes: &[u8]) {
+        let mut chunks = bytes.chunks_exact(8);
+        for c in &mut chunks {
+            self.add(u64::from_le_bytes(c.try_into().expect("8 bytes")));
+        }
+        let rest = chunks.remainder();
+        if !rest.is_empty() {
+            let mut buf = [0u8; 8];
+            buf[..rest.len()].copy_from_slice(rest);
+            self.add(u64::from_le_bytes(buf));
+        }
+    }
+
+    #[inline]
+    fn write_u8(&mut self, i: u8) {
+        self.add(u64::from(i));
+    }
+
+    #[inline]
+    fn write_u32(&mut self, i: u32) {
+        self.add(u64::from(i));
+    }
+
+    #[inline]
+    fn write_u64(&mut self, i: u64) {
+        self.add(i);
+    }
+
+    #[inline]
+    fn write_usize(&mut self, i: usize) {
+        self.add(i as u64);
+    }
+
+    #[inline]
+    fn finish(&self) -> u64 {
+        self.0
+    }
+}
+
+/// A `HashMap` with [`FxHasher`].
+pub(crate) type FxHashMap<K, V> = std::collections::HashMap<K, V, std::hash::BuildHasherDefault<FxHasher>>;
 
 fn csv_error(path: &Path, e: &csv::Error) -> InputError {
     let line = e.position().map_or(0, |p| p.line());

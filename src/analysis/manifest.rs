@@ -4,10 +4,9 @@
 //! `identity`, `expression`, `emotion` and `intensity`; other columns (files, timing, hashes,
 //! seeds) are ignored, so the builder can add columns without breaking the analysis.
 
-use std::collections::HashMap;
 use std::path::Path;
 
-use super::input::{CsvInput, InputError};
+use super::input::{CsvInput, FxHashMap, InputError};
 use crate::facs::{Catalog, EmotionTable, Expression};
 
 /// Still image or video.
@@ -52,7 +51,7 @@ impl Stimulus {
 #[derive(Debug, Clone, Default)]
 pub struct Manifest {
     pub stimuli: Vec<Stimulus>,
-    index: HashMap<String, usize>,
+    index: FxHashMap<Box<str>, usize>,
 }
 
 impl Manifest {
@@ -102,7 +101,7 @@ impl Manifest {
                 .ok()
                 .filter(|v: &f64| (0.0..=1.0).contains(v))
                 .ok_or_else(|| input.cell(place, "intensity", format!("\"{}\" is not a number in [0, 1]", &r[c_intensity])))?;
-            if manifest.index.insert(id.to_string(), manifest.stimuli.len()).is_some() {
+            if manifest.index.insert(id.into(), manifest.stimuli.len()).is_some() {
                 return Err(input.cell(place, "stimulus_id", format!("stimulus id \"{id}\" appears twice")));
             }
             manifest.stimuli.push(Stimulus {

@@ -27,9 +27,10 @@ use std::collections::{BTreeMap, BTreeSet};
 use serde::Serialize;
 
 use super::coding::Maybe;
+use super::input::FxHashMap;
 use super::manifest::{Manifest, Media};
 use super::responses::{Responses, Scale};
-use super::stats::anova::{AnovaTable, SsType, two_way};
+use super::stats::anova::{AnovaTable, SsType, TwoWayCells, two_way_cells};
 use super::stats::binomial::{Alternative, binomial_test};
 use super::stats::classification::ConfusionMatrix;
 use super::stats::hit_rate::unbiased_hit_rates;
@@ -215,32 +216,55 @@ pub fn analyze(manifest: &Manifest, responses: &Responses) -> Option<RatingRepor
     }
     let labels = display_labels(responses);
     let to_display: Vec<usize> = responses.emotion_labels.iter().map(|l| labels.iter().position(|x| x == l).expect("label")).collect();
-    let stim_label = |s: usize| -> Option<usize> {
-        let e = manifest.stimuli[s].emotion.as_deref()?;
-        labels.iter().position(|l| l == e)
-    };
-    let cond_of = |s: usize| -> CondKey { (manifest.stimuli[s].media, manifest.stimuli[s].intensity_percent()) };
+    // Per stimulus, looked up once: its shown label (display index) and its condition.
+    let stim_labels: Vec<Option<usize>> = manifest
+        .stimuli
+        .iter()
+        .map(|st| {
+            let e = st.emotion.as_deref()?;
+            labels.iter().position(|l| l == e)
+        })
+        .collect();
+    let stim_label = |s: usize| -> Option<usize> { stim_labels[s] };
+    let stim_conds: Vec<CondKey> = manifest.stimuli.iter().map(|st| (st.media, st.intensity_percent())).collect();
+    let cond_of = |s: usize| -> CondKey { stim_conds[s] };
 
-    let mut cond_keys: BTreeSet<CondKey> = BTreeSet::new();
-    for e in &responses.emotions {
-        cond_keys.insert(cond_of(e.stimulus));
+    let mut used = vec![false; manifest.len()];
+    for s in responses.emotions.iter().map(|e| e.stimulus).chain(responses.ratings.iter().map(|r| r.stimulus)) {
+        used[s] = true;
     }
-    for r in &responses.ratings {
-        cond_keys.insert(cond_of(r.stimulus));
-    }
+    let cond_keys: BTreeSet<CondKey> = (0..manifest.len()).filter(|&s| used[s]).map(cond_of).collect();
     // Videos first, then higher intensities first (the seed's table order).
     let mut cond_keys: Vec<CondKey> = cond_keys.into_iter().collect();
     cond_keys.sort_by(|a, b| b.0.cmp(&a.0).then(b.1.cmp(&a.1)));
     let groups: Vec<usize> = (0..responses.groups.len()).collect();
     let scales_present: BTreeSet<Scale> = responses.ratings.iter().map(|r| r.scale).collect();
 
+    // Answers and ratings split by condition in one pass each, keeping file order.
+    let stim_cond_index: Vec<usize> = (0..manifest.len()).map(|s| cond_keys.iter().position(|k| *k == cond_of(s)).unwrap_or(usize::MAX)).collect();
+    let mut answers_by_cond: Vec<Vec<&super::responses::EmotionAnswer>> = vec![Vec::new(); cond_keys.len()];
+    for e in &responses.emotions {
+        answers_by_cond[stim_cond_index[e.stimulus]].push(e);
+    }
+    let mut ratings_by_cond: Vec<Vec<&super::responses::Rating>> = vec![Vec::new(); cond_keys.len()];
+    for r in &responses.ratings {
+        ratings_by_cond[stim_cond_index[r.stimulus]].push(r);
+    }
+    let n_participants = responses.participants.len();
+
     let mut conditions = Vec::new();
     let mut group_tests = Vec::new();
-    for &key in &cond_keys {
+    for (ci, &key) in cond_keys.iter().enumerate() {
         let stimuli: Vec<usize> = (0..manifest.len()).filter(|&s| cond_of(s) == key).collect();
-        let answers: Vec<_> = responses.emotions.iter().filter(|e| cond_of(e.stimulus) == key).collect();
-        let ratings: Vec<_> = responses.ratings.iter().filter(|r| cond_of(r.stimulus) == key).collect();
-        let participants: BTreeSet<usize> = answers.iter().map(|e| e.participant).chain(ratings.iter().map(|r| r.participant)).collect();
+        let answers = std::mem::take(&mut answers_by_cond[ci]);
+        let ratings = std::mem::take(&mut ratings_by_cond[ci]);
+        let participants: Vec<usize> = {
+            let mut here = vec![false; n_participants];
+            for p in answers.iter().map(|e| e.participant).chain(ratings.iter().map(|r| r.participant)) {
+                here[p] = true;
+            }
+            (0..n_participants).filter(|&p| here[p]).collect()
+        };
 
         // Confusion over the full label set (square), rows restricted to shown emotions for display.
         let mut counts = vec![vec![0u64; labels.len()]; labels.len()];
@@ -295,14 +319,28 @@ pub fn analyze(manifest: &Manifest, responses: &Responses) -> Option<RatingRepor
                 continue;
             }
             // value[(participant, stimulus)]
-            let value: BTreeMap<(usize, usize), f64> = these.iter().map(|r| ((r.participant, r.stimulus), r.value)).collect();
-            let raters: BTreeSet<usize> = these.iter().map(|r| r.participant).collect();
+            let key_of = |p: usize, s: usize| (p as u64) * manifest.len() as u64 + s as u64;
+            let mut value: FxHashMap<u64, f64> = FxHashMap::default();
+            value.reserve(these.len());
+            let mut is_rater = vec![false; n_participants];
+            let mut is_rated = vec![false; manifest.len()];
+            // Values per shown label, in file order.
+            let mut by_label: Vec<Vec<f64>> = vec![Vec::new(); labels.len()];
+            for r in &these {
+                value.insert(key_of(r.participant, r.stimulus), r.value);
+                is_rater[r.participant] = true;
+                is_rated[r.stimulus] = true;
+                if let Some(t) = stim_label(r.stimulus) {
+                    by_label[t].push(r.value);
+                }
+            }
+            let raters: Vec<usize> = (0..n_participants).filter(|&p| is_rater[p]).collect();
             let alpha_of = |cases: &[usize]| -> (Maybe, usize, usize) {
-                let items: Vec<usize> = raters.iter().copied().filter(|p| cases.iter().all(|s| value.contains_key(&(*p, *s)))).collect();
-                let rows: Vec<Vec<f64>> = cases.iter().map(|s| items.iter().map(|p| value[&(*p, *s)]).collect()).collect();
+                let items: Vec<usize> = raters.iter().copied().filter(|&p| cases.iter().all(|&s| value.contains_key(&key_of(p, s)))).collect();
+                let rows: Vec<Vec<f64>> = cases.iter().map(|&s| items.iter().map(|&p| value[&key_of(p, s)]).collect()).collect();
                 (Maybe::of(cronbach_alpha(&rows, 0.95).map(|a| a.alpha)), cases.len(), items.len())
             };
-            let rated: Vec<usize> = stimuli.iter().copied().filter(|s| these.iter().any(|r| r.stimulus == *s)).collect();
+            let rated: Vec<usize> = stimuli.iter().copied().filter(|&s| is_rated[s]).collect();
             let (alpha, alpha_cases, alpha_items) = alpha_of(&rated);
             let mut cells = Vec::new();
             for t in 0..labels.len() {
@@ -310,9 +348,9 @@ pub fn analyze(manifest: &Manifest, responses: &Responses) -> Option<RatingRepor
                 if cases.is_empty() {
                     continue;
                 }
-                let vals: Vec<f64> = these.iter().filter(|r| stim_label(r.stimulus) == Some(t)).map(|r| r.value).collect();
+                let vals = &by_label[t];
                 let (alpha, alpha_cases, alpha_items) = alpha_of(&cases);
-                cells.push(ScaleCell { emotion: labels[t].clone(), stats: describe(&vals), alpha, alpha_cases, alpha_items });
+                cells.push(ScaleCell { emotion: labels[t].clone(), stats: describe(vals), alpha, alpha_cases, alpha_items });
             }
             let all: Vec<f64> = these.iter().map(|r| r.value).collect();
             scales.push(ScaleSummary { scale, overall: describe(&all), alpha, alpha_cases, alpha_items, cells });
@@ -320,19 +358,19 @@ pub fn analyze(manifest: &Manifest, responses: &Responses) -> Option<RatingRepor
 
         // Group comparisons within the condition, from per-participant tallies:
         // per_participant[p][shown label] = (hits, answers); belv_sum[p] = (sum, n).
-        let mut per_participant: BTreeMap<usize, Vec<(u64, u64)>> = BTreeMap::new();
+        let mut per_participant: Vec<Option<Vec<(u64, u64)>>> = vec![None; n_participants];
         for e in &answers {
             if let Some(t) = stim_label(e.stimulus) {
-                let v = per_participant.entry(e.participant).or_insert_with(|| vec![(0, 0); labels.len()]);
+                let v = per_participant[e.participant].get_or_insert_with(|| vec![(0, 0); labels.len()]);
                 v[t].1 += 1;
                 if to_display[e.label] == t {
                     v[t].0 += 1;
                 }
             }
         }
-        let mut belv_sum: BTreeMap<usize, (f64, u64)> = BTreeMap::new();
+        let mut belv_sum: Vec<Option<(f64, u64)>> = vec![None; n_participants];
         for r in ratings.iter().filter(|r| r.scale == Scale::Believability) {
-            let v = belv_sum.entry(r.participant).or_default();
+            let v = belv_sum[r.participant].get_or_insert_default();
             v.0 += r.value;
             v.1 += 1;
         }
@@ -345,8 +383,8 @@ pub fn analyze(manifest: &Manifest, responses: &Responses) -> Option<RatingRepor
                 }
                 let correct_rate = |p: usize, t: Option<usize>| -> Option<f64> {
                     let (hits, n) = match t {
-                        None => per_participant.get(&p).map(|v| v.iter().fold((0, 0), |acc, x| (acc.0 + x.0, acc.1 + x.1)))?,
-                        Some(t) => per_participant.get(&p)?[t],
+                        None => per_participant[p].as_ref().map(|v| v.iter().fold((0, 0), |acc, x| (acc.0 + x.0, acc.1 + x.1)))?,
+                        Some(t) => per_participant[p].as_ref()?[t],
                     };
                     (n > 0).then(|| hits as f64 / n as f64)
                 };
@@ -372,7 +410,7 @@ pub fn analyze(manifest: &Manifest, responses: &Responses) -> Option<RatingRepor
                     push("all".into(), "recognition (proportion correct)", rec(&pa, None), rec(&pb, None));
                 }
                 let mean_belv = |ps: &[usize]| -> Vec<f64> {
-                    ps.iter().filter_map(|p| belv_sum.get(p).map(|(sum, n)| sum / *n as f64)).collect()
+                    ps.iter().filter_map(|&p| belv_sum[p].map(|(sum, n)| sum / n as f64)).collect()
                 };
                 if scales_present.contains(&Scale::Believability) {
                     push("all".into(), "believability (participant mean)", mean_belv(&pa), mean_belv(&pb));
@@ -401,31 +439,42 @@ pub fn analyze(manifest: &Manifest, responses: &Responses) -> Option<RatingRepor
     // Two-way ANOVA per media: emotion × intensity.
     let mut anova = Vec::new();
     for media in [Media::Video, Media::Image] {
-        let mut fit = |outcome: &str, a: Vec<String>, b: Vec<String>, y: Vec<f64>| {
-            if y.is_empty() {
+        let mut fit = |outcome: &str, cells: TwoWayCells| {
+            if cells.n() == 0 {
                 return;
             }
-            let run = |t| two_way(&a, &b, &y, t).map_err(|e| e.to_string());
-            anova.push(Anova { media, outcome: outcome.into(), a: "emotion", b: "intensity", n: y.len(), type_ii: run(SsType::II), type_iii: run(SsType::III) });
+            let run = |t| two_way_cells(&cells, t).map_err(|e| e.to_string());
+            anova.push(Anova { media, outcome: outcome.into(), a: "emotion", b: "intensity", n: cells.n(), type_ii: run(SsType::II), type_iii: run(SsType::III) });
         };
-        let (mut a, mut b, mut y) = (Vec::new(), Vec::new(), Vec::new());
-        for e in responses.emotions.iter().filter(|e| manifest.stimuli[e.stimulus].media == media) {
-            if let Some(t) = stim_label(e.stimulus) {
-                a.push(labels[t].clone());
-                b.push(format!("{}%", manifest.stimuli[e.stimulus].intensity_percent()));
-                y.push(if t == to_display[e.label] { 1.0 } else { 0.0 });
+        // Factor levels: the labels and the intensities (in whole percent) of the stimuli.
+        let intensities: Vec<u32> = {
+            let mut v: Vec<u32> = manifest.stimuli.iter().map(|s| s.intensity_percent()).collect();
+            v.sort_unstable();
+            v.dedup();
+            v
+        };
+        let intensity_names: Vec<String> = intensities.iter().map(|i| format!("{i}%")).collect();
+        let level_of: Vec<Option<(usize, usize)>> = (0..manifest.len())
+            .map(|s| {
+                let st = &manifest.stimuli[s];
+                let t = stim_label(s).filter(|_| st.media == media)?;
+                Some((t, intensities.binary_search(&st.intensity_percent()).expect("listed above")))
+            })
+            .collect();
+        let mut cells = TwoWayCells::with_levels(labels.clone(), intensity_names.clone());
+        for e in &responses.emotions {
+            if let Some((t, i)) = level_of[e.stimulus] {
+                cells.add(t, i, if t == to_display[e.label] { 1.0 } else { 0.0 });
             }
         }
-        fit("recognition", a, b, y);
-        let (mut a, mut b, mut y) = (Vec::new(), Vec::new(), Vec::new());
-        for r in responses.ratings.iter().filter(|r| r.scale == Scale::Believability && manifest.stimuli[r.stimulus].media == media) {
-            if let Some(t) = stim_label(r.stimulus) {
-                a.push(labels[t].clone());
-                b.push(format!("{}%", manifest.stimuli[r.stimulus].intensity_percent()));
-                y.push(r.value);
+        fit("recognition", cells);
+        let mut cells = TwoWayCells::with_levels(labels.clone(), intensity_names);
+        for r in responses.ratings.iter().filter(|r| r.scale == Scale::Believability) {
+            if let Some((t, i)) = level_of[r.stimulus] {
+                cells.add(t, i, r.value);
             }
         }
-        fit("believability", a, b, y);
+        fit("believability", cells);
     }
 
     // Table 14: this study's image conditions beside the published figures.

@@ -20,7 +20,7 @@
 use std::collections::HashMap;
 use std::path::Path;
 
-use super::input::{CsvInput, InputError, Place};
+use super::input::{CsvInput, Fields, FxHashMap, InputError, Place};
 use super::manifest::Manifest;
 use crate::facs::{Catalog, EmotionTable, Expression};
 
@@ -119,6 +119,43 @@ enum Measure {
     Education,
 }
 
+impl Measure {
+    /// Measures given per stimulus (the rest are about the participant).
+    const STIMULUS_MEASURES: u64 = 6;
+
+    /// A dense index in `0..STIMULUS_MEASURES` for the measures given per stimulus.
+    fn slot(self) -> u64 {
+        match self {
+            Measure::Aus => 0,
+            Measure::Emotion => 1,
+            Measure::Scale(Scale::Believability) => 2,
+            Measure::Scale(Scale::DescriptionMatch) => 3,
+            Measure::Scale(Scale::Q1) => 4,
+            Measure::Scale(Scale::Q2) => 5,
+            _ => unreachable!("only measures about a stimulus are keyed"),
+        }
+    }
+
+    /// The measure's name for a [`Measure::slot`].
+    fn slot_name(slot: u64) -> &'static str {
+        ["aus", "emotion", "believability", "description_match", "q1", "q2"][slot as usize]
+    }
+}
+
+/// One judgement about a stimulus, for the duplicate check.
+#[derive(Clone, Copy)]
+struct Judgement {
+    key: u64,
+    row: u64,
+    line: u64,
+}
+
+/// The first judgement (in file order) that repeats an earlier one, with that earlier one.
+fn first_duplicate(judgements: &mut [Judgement]) -> Option<(Judgement, Judgement)> {
+    judgements.sort_unstable_by_key(|j| (j.key, j.row));
+    judgements.windows(2).filter(|w| w[0].key == w[1].key).map(|w| (w[0], w[1])).min_by_key(|(_, dup)| dup.row)
+}
+
 fn measure(text: &str) -> Option<Measure> {
     Some(match text {
         "aus" => Measure::Aus,
@@ -166,11 +203,20 @@ impl Responses {
             ..Responses::default()
         };
         let label_index: HashMap<String, usize> = out.emotion_labels.iter().cloned().enumerate().map(|(i, l)| (l, i)).collect();
-        let mut participant_index: HashMap<String, usize> = HashMap::new();
-        let mut group_index: HashMap<String, usize> = HashMap::new();
-        let mut seen: HashMap<(usize, usize, Measure), u64> = HashMap::new();
+        // Ids are interned: each distinct participant, group and stimulus id is hashed into its
+        // index once per run of equal ids (rows of one participant and one stimulus are usually
+        // adjacent), and never copied per row.
+        let mut participant_index: FxHashMap<Box<str>, usize> = FxHashMap::default();
+        let mut group_index: FxHashMap<Box<str>, usize> = FxHashMap::default();
+        let (mut last_pid, mut last_p) = (Vec::<u8>::new(), usize::MAX);
+        let (mut last_sid, mut last_s) = (Vec::<u8>::new(), usize::MAX);
+        // Every judgement as (participant, stimulus, measure) packed into one integer, with its
+        // row and line; duplicates are found by sorting once at the end (or at the first other
+        // error, so the error reported is still the first one in file order).
+        let mut judgements: Vec<Judgement> = Vec::new();
+        let n_stimuli = manifest.len() as u64;
         let mut aus_cache: HashMap<String, Expression> = HashMap::new();
-        // `for_each` borrows the reader mutably; errors are built from a copy of the file name.
+        // `for_each_bytes` borrows the reader mutably; errors are built from a copy of the file name.
         let file = input.file.clone();
         let cell = |place: Place, column: &str, problem: String| InputError::Cell {
             file: file.clone(),
@@ -179,41 +225,53 @@ impl Responses {
             column: column.to_string(),
             problem,
         };
-        out.rows = input.for_each(|r, place| {
-            let pid = r[c_part].trim();
+        let header = input.header_names();
+        let read = input.for_each_bytes(|record, place| {
+            let r = Fields::new(record).map_err(|i| cell(place, header.get(i).map_or("?", String::as_str), "not valid UTF-8".into()))?;
+            let pid = r.get(c_part);
             if pid.is_empty() {
                 return Err(cell(place, "participant_id", "empty participant id".into()));
             }
-            let group = r[c_group].trim();
+            let group = r.get(c_group);
             if group.is_empty() {
                 return Err(cell(place, "group", "empty group".into()));
             }
-            let g = match group_index.get(group) {
-                Some(&g) => g,
-                None => {
-                    out.groups.push(group.to_string());
-                    group_index.insert(group.to_string(), out.groups.len() - 1);
-                    out.groups.len() - 1
-                }
-            };
-            let p = match participant_index.get(pid) {
-                Some(&p) => {
-                    if out.participants[p].group != g {
-                        return Err(cell(
-                            place,
-                            "group",
-                            format!("participant \"{pid}\" is in group \"{}\" on an earlier row", out.groups[out.participants[p].group]),
-                        ));
+            let g = if last_p != usize::MAX && out.groups[out.participants[last_p].group] == group {
+                out.participants[last_p].group
+            } else {
+                match group_index.get(group) {
+                    Some(&g) => g,
+                    None => {
+                        out.groups.push(group.to_string());
+                        group_index.insert(group.into(), out.groups.len() - 1);
+                        out.groups.len() - 1
                     }
-                    p
-                }
-                None => {
-                    out.participants.push(Participant { id: pid.to_string(), group: g, ..Participant::default() });
-                    participant_index.insert(pid.to_string(), out.participants.len() - 1);
-                    out.participants.len() - 1
                 }
             };
-            let m_text = r[c_measure].trim();
+            let p = if last_p != usize::MAX && last_pid == pid.as_bytes() {
+                last_p
+            } else {
+                let p = match participant_index.get(pid) {
+                    Some(&p) => p,
+                    None => {
+                        out.participants.push(Participant { id: pid.to_string(), group: g, ..Participant::default() });
+                        participant_index.insert(pid.into(), out.participants.len() - 1);
+                        out.participants.len() - 1
+                    }
+                };
+                last_pid.clear();
+                last_pid.extend_from_slice(pid.as_bytes());
+                last_p = p;
+                p
+            };
+            if out.participants[p].group != g {
+                return Err(cell(
+                    place,
+                    "group",
+                    format!("participant \"{pid}\" is in group \"{}\" on an earlier row", out.groups[out.participants[p].group]),
+                ));
+            }
+            let m_text = r.get(c_measure);
             let m = measure(m_text).ok_or_else(|| {
                 cell(
                     place,
@@ -221,16 +279,16 @@ impl Responses {
                     format!("unknown measure \"{m_text}\" (aus, emotion, believability, description_match, q1, q2, age, gender, ethnicity, education)"),
                 )
             })?;
-            let trial = r[c_trial].trim();
+            let trial = r.get(c_trial);
             if !trial.is_empty() && trial.parse::<u64>().is_err() {
                 return Err(cell(place, "trial", format!("\"{trial}\" is not a whole number")));
             }
-            let rt = r[c_rt].trim();
+            let rt = r.get(c_rt);
             if !rt.is_empty() && !rt.parse::<f64>().is_ok_and(|v| v.is_finite() && v >= 0.0) {
                 return Err(cell(place, "rt_ms", format!("\"{rt}\" is not a non-negative number of milliseconds")));
             }
-            let value = r[c_value].trim();
-            let sid = r[c_stim].trim();
+            let value = r.get(c_value);
+            let sid = r.get(c_stim);
             let demographic = matches!(m, Measure::Age | Measure::Gender | Measure::Ethnicity | Measure::Education);
             if demographic {
                 if !sid.is_empty() {
@@ -255,12 +313,19 @@ impl Responses {
             if sid.is_empty() {
                 return Err(cell(place, "stimulus_id", format!("measure \"{m_text}\" needs a stimulus id")));
             }
-            let s = manifest
-                .position(sid)
-                .ok_or_else(|| cell(place, "stimulus_id", format!("unknown stimulus id \"{sid}\" (not in the manifest)")))?;
-            if let Some(first) = seen.insert((p, s, m), place.row) {
-                return Err(cell(place, "measure", format!("participant \"{pid}\" already gave \"{m_text}\" for stimulus \"{sid}\" on row {first}")));
-            }
+            let s = if last_s != usize::MAX && last_sid == sid.as_bytes() {
+                last_s
+            } else {
+                let s = manifest
+                    .position(sid)
+                    .ok_or_else(|| cell(place, "stimulus_id", format!("unknown stimulus id \"{sid}\" (not in the manifest)")))?;
+                last_sid.clear();
+                last_sid.extend_from_slice(sid.as_bytes());
+                last_s = s;
+                s
+            };
+            let key = (p as u64 * n_stimuli + s as u64) * Measure::STIMULUS_MEASURES + m.slot();
+            judgements.push(Judgement { key, row: place.row, line: place.line });
             match m {
                 Measure::Aus => {
                     let aus = match aus_cache.get(value) {
@@ -289,7 +354,17 @@ impl Responses {
                 _ => unreachable!("demographic measures returned above"),
             }
             Ok(())
-        })?;
+        });
+        if let Some((first, dup)) = first_duplicate(&mut judgements) {
+            let (p, s, m) = (dup.key / (n_stimuli * Measure::STIMULUS_MEASURES), (dup.key / Measure::STIMULUS_MEASURES) % n_stimuli, dup.key % Measure::STIMULUS_MEASURES);
+            let (pid, sid, m_text) = (&out.participants[p as usize].id, &manifest.stimuli[s as usize].id, Measure::slot_name(m));
+            return Err(cell(
+                Place { row: dup.row, line: dup.line },
+                "measure",
+                format!("participant \"{pid}\" already gave \"{m_text}\" for stimulus \"{sid}\" on row {}", first.row),
+            ));
+        }
+        out.rows = read?;
         Ok(out)
     }
 
@@ -356,12 +431,29 @@ mod tests {
         assert!(e.contains("row 2 (line 3), column \"group\""), "{e}");
         let e = error("p1,a,s2,1,emotion,fear,\np1,a,s2,1,emotion,anger,\n");
         assert!(e.contains("already gave"), "{e}");
+        assert!(e.contains("row 2 (line 3), column \"measure\": participant \"p1\" already gave \"emotion\" for stimulus \"s2\" on row 1"), "{e}");
+        // The first error in file order wins, also when the duplicate is found late.
+        let e = error("p1,a,s2,1,q1,3,\np1,a,s1,1,q1,3,\np1,a,s2,1,q1,4,\np1,a,s1,1,q1,5,\np2,a,s9,1,q1,3,\n");
+        assert!(e.contains("row 3 (line 4), column \"measure\"") && e.contains("on row 1"), "{e}");
+        let e = error("p1,a,s2,1,q1,3,\np1,a,s2,1,q1,9,\n");
+        assert!(e.contains("row 2 (line 3), column \"measure\""), "{e}");
         let e = error("p1,a,s2,x,emotion,fear,\n");
         assert!(e.contains("column \"trial\""), "{e}");
         let e = error("p1,a,s2,1,mood,fear,\n");
         assert!(e.contains("unknown measure \"mood\""), "{e}");
         let e = error("");
         assert!(e.contains("no data rows"), "{e}");
+    }
+
+    #[test]
+    fn invalid_utf8_names_row_and_column() {
+        let (catalog, emotions) = (Catalog::built_in(), EmotionTable::built_in());
+        let manifest = Manifest::from_csv("m.csv", MANIFEST, catalog, &emotions).unwrap();
+        let mut bytes = format!("{HEADER}p1,a,s2,1,emotion,fear,\np2,a,s2,1,emotion,").into_bytes();
+        bytes.extend_from_slice(b"\xff\xfe,\n");
+        let input = CsvInput::from_reader(Path::new("r.csv"), Box::new(std::io::Cursor::new(bytes))).unwrap();
+        let e = Responses::parse(input, &manifest, catalog, &emotions).unwrap_err().to_string();
+        assert!(e.contains("row 2 (line 3), column \"value\": not valid UTF-8"), "{e}");
     }
 
     #[test]

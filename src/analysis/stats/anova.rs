@@ -182,14 +182,14 @@ pub(crate) enum Coding {
 
 /// Sorted distinct levels and each observation's level index.
 fn encode_levels<S: AsRef<str>>(x: &[S]) -> (Vec<String>, Vec<usize>) {
-    let mut levels: Vec<String> = x.iter().map(|s| s.as_ref().to_owned()).collect();
-    levels.sort();
+    let mut levels: Vec<&str> = x.iter().map(|s| s.as_ref()).collect();
+    levels.sort_unstable();
     levels.dedup();
     let idx = x
         .iter()
-        .map(|s| levels.binary_search(&s.as_ref().to_owned()).unwrap_or(0))
+        .map(|s| levels.binary_search(&s.as_ref()).unwrap_or(0))
         .collect();
-    (levels, idx)
+    (levels.into_iter().map(str::to_owned).collect(), idx)
 }
 
 /// Contrast columns (L − 1 of them) for one observation at level `l` of `n_levels`.
@@ -211,24 +211,35 @@ struct Design {
     ab: Vec<usize>,
 }
 
-fn build_design(ia: &[usize], la: usize, ib: &[usize], lb: usize, coding: Coding) -> Design {
+/// One design row per (A, B) pair, each row multiplied by `weight[r]`.
+fn build_design(
+    ia: &[usize],
+    la: usize,
+    ib: &[usize],
+    lb: usize,
+    weight: impl Fn(usize) -> f64,
+    coding: Coding,
+) -> Design {
     let (pa, pb) = (la - 1, lb - 1);
     let ncol = 1 + pa + pb + pa * pb;
-    let x = DMatrix::from_fn(ia.len(), ncol, |r, c| {
+    let mut x = DMatrix::zeros(ia.len(), ncol);
+    for r in 0..ia.len() {
         let (ca, cb) = (
             contrast_row(ia[r], la, coding),
             contrast_row(ib[r], lb, coding),
         );
-        match c {
-            0 => 1.0,
-            c if c <= pa => ca[c - 1],
-            c if c <= pa + pb => cb[c - 1 - pa],
-            c => {
-                let k = c - 1 - pa - pb;
-                ca[k / pb] * cb[k % pb]
-            }
+        let w = weight(r);
+        x[(r, 0)] = w;
+        for k in 0..pa {
+            x[(r, 1 + k)] = w * ca[k];
         }
-    });
+        for k in 0..pb {
+            x[(r, 1 + pa + k)] = w * cb[k];
+        }
+        for k in 0..pa * pb {
+            x[(r, 1 + pa + pb + k)] = w * ca[k / pb] * cb[k % pb];
+        }
+    }
     let a = (1..=pa).collect();
     let b = (pa + 1..=pa + pb).collect();
     let ab = (pa + pb + 1..ncol).collect();
@@ -244,6 +255,87 @@ fn with_terms(terms: &[&Vec<usize>]) -> Vec<usize> {
     cols
 }
 
+/// Sufficient statistics of a two-way layout: per (A, B) cell the count, the mean and the
+/// within-cell sum of squared deviations (Welford's update, so one pass and no cancellation).
+///
+/// Every model of a two-way ANOVA is a function of the cell, so for any of them
+/// RSS = SS_within + Σ_cells n·(ȳ_cell − ŷ_cell)²: the fit on the cell means, weighted by the
+/// counts, gives exactly the sums of squares of the fit on the observations, in time
+/// independent of the number of observations.
+#[derive(Debug, Clone, Default)]
+pub struct TwoWayCells {
+    a_levels: Vec<String>,
+    b_levels: Vec<String>,
+    /// Row-major `a_levels × b_levels`: (n, mean, SS within).
+    cells: Vec<(u64, f64, f64)>,
+    /// Index of the first non-finite value pushed, if any.
+    non_finite: Option<usize>,
+    pushed: usize,
+}
+
+impl TwoWayCells {
+    /// An empty layout; levels are added as observations name them.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// An empty layout with known level names (observations then use [`Self::add`]); levels
+    /// that receive no observation are left out of the ANOVA, as with [`two_way`].
+    pub fn with_levels(a_levels: Vec<String>, b_levels: Vec<String>) -> Self {
+        let cells = vec![(0, 0.0, 0.0); a_levels.len() * b_levels.len()];
+        TwoWayCells { a_levels, b_levels, cells, ..Self::default() }
+    }
+
+    fn level(levels: &mut Vec<String>, name: &str) -> (usize, bool) {
+        match levels.iter().position(|l| l == name) {
+            Some(i) => (i, false),
+            None => {
+                levels.push(name.to_owned());
+                (levels.len() - 1, true)
+            }
+        }
+    }
+
+    /// Adds one observation `y` at levels named `a` and `b`.
+    pub fn push(&mut self, a: &str, b: &str, y: f64) {
+        let (ia, new_a) = Self::level(&mut self.a_levels, a);
+        let (ib, new_b) = Self::level(&mut self.b_levels, b);
+        if new_a || new_b {
+            let (la, lb) = (self.a_levels.len(), self.b_levels.len());
+            let old_lb = if new_b { lb - 1 } else { lb };
+            let mut cells = vec![(0, 0.0, 0.0); la * lb];
+            for (k, c) in self.cells.iter().enumerate() {
+                cells[(k / old_lb) * lb + k % old_lb] = *c;
+            }
+            self.cells = cells;
+        }
+        self.add(ia, ib, y);
+    }
+
+    /// Adds one observation `y` at level indices `ia`, `ib` (into the names given to
+    /// [`Self::with_levels`]).
+    ///
+    /// # Panics
+    /// If an index is out of range.
+    pub fn add(&mut self, ia: usize, ib: usize, y: f64) {
+        assert!(ia < self.a_levels.len() && ib < self.b_levels.len(), "level index out of range");
+        if !y.is_finite() && self.non_finite.is_none() {
+            self.non_finite = Some(self.pushed);
+        }
+        self.pushed += 1;
+        let c = &mut self.cells[ia * self.b_levels.len() + ib];
+        c.0 += 1;
+        let d = y - c.1;
+        c.1 += d / c.0 as f64;
+        c.2 += d * (y - c.1);
+    }
+
+    /// Observations added.
+    pub fn n(&self) -> usize {
+        self.pushed
+    }
+}
+
 /// Two-way between-subjects ANOVA of `y` on factors `a` and `b` (see the module doc).
 pub fn two_way<S: AsRef<str>, T: AsRef<str>>(
     a: &[S],
@@ -251,45 +343,100 @@ pub fn two_way<S: AsRef<str>, T: AsRef<str>>(
     y: &[f64],
     ss_type: SsType,
 ) -> Result<AnovaTable> {
-    two_way_coded(a, b, y, ss_type, Coding::Sum)
-}
-
-pub(crate) fn two_way_coded<S: AsRef<str>, T: AsRef<str>>(
-    a: &[S],
-    b: &[T],
-    y: &[f64],
-    ss_type: SsType,
-    coding: Coding,
-) -> Result<AnovaTable> {
     check_same_len("two-way ANOVA (A vs y)", a.len(), y.len())?;
     check_same_len("two-way ANOVA (B vs y)", b.len(), y.len())?;
     check_finite("two-way ANOVA y", y)?;
     let ((la, ia), (lb, ib)) = (encode_levels(a), encode_levels(b));
-    if la.len() < 2 || lb.len() < 2 {
+    let mut cells = TwoWayCells::with_levels(la, lb);
+    for ((&i, &j), &v) in ia.iter().zip(&ib).zip(y) {
+        cells.add(i, j, v);
+    }
+    two_way_cells(&cells, ss_type)
+}
+
+/// Two-way ANOVA from cell summaries: the same table as [`two_way`] on the observations.
+pub fn two_way_cells(cells: &TwoWayCells, ss_type: SsType) -> Result<AnovaTable> {
+    two_way_cells_coded(cells, ss_type, Coding::Sum)
+}
+
+/// Levels that hold observations, sorted by name: (old index → new index, count).
+fn used_levels(names: &[String], used: impl Fn(usize) -> bool) -> (Vec<Option<usize>>, usize) {
+    let mut order: Vec<usize> = (0..names.len()).filter(|&i| used(i)).collect();
+    order.sort_by(|&x, &y| names[x].cmp(&names[y]));
+    let mut map = vec![None; names.len()];
+    for (new, &old) in order.iter().enumerate() {
+        map[old] = Some(new);
+    }
+    (map, order.len())
+}
+
+fn check_levels(la: usize, lb: usize) -> Result<()> {
+    if la < 2 || lb < 2 {
         return Err(StatsError::InvalidParameter {
             what: "two-way ANOVA",
-            detail: format!(
-                "each factor needs ≥ 2 levels (A has {}, B has {})",
-                la.len(),
-                lb.len()
-            ),
+            detail: format!("each factor needs ≥ 2 levels (A has {la}, B has {lb})"),
         });
     }
-    let d = build_design(&ia, la.len(), &ib, lb.len(), coding);
-    let yv = DVector::from_column_slice(y);
+    Ok(())
+}
+
+pub(crate) fn two_way_cells_coded(
+    cells: &TwoWayCells,
+    ss_type: SsType,
+    coding: Coding,
+) -> Result<AnovaTable> {
+    if let Some(index) = cells.non_finite {
+        return Err(StatsError::NonFinite { what: "two-way ANOVA y", index });
+    }
+    let lb_all = cells.b_levels.len();
+    let count = |ia: usize, ib: usize| cells.cells[ia * lb_all + ib].0;
+    let (map_a, la) = used_levels(&cells.a_levels, |i| (0..lb_all).any(|j| count(i, j) > 0));
+    let (map_b, lb) = used_levels(&cells.b_levels, |j| (0..cells.a_levels.len()).any(|i| count(i, j) > 0));
+    check_levels(la, lb)?;
+    // One row per non-empty cell, in (A, B) order of the sorted levels.
+    let mut rows: Vec<(usize, usize, (u64, f64, f64))> = Vec::new();
+    for (i, mi) in map_a.iter().enumerate() {
+        for (j, mj) in map_b.iter().enumerate() {
+            let c = cells.cells[i * lb_all + j];
+            if let (Some(a), Some(b), true) = (mi, mj, c.0 > 0) {
+                rows.push((*a, *b, c));
+            }
+        }
+    }
+    rows.sort_by_key(|r| (r.0, r.1));
+    let n: u64 = rows.iter().map(|r| r.2.0).sum();
+    let ss_within: f64 = rows.iter().map(|r| r.2.2).sum();
+    let ia: Vec<usize> = rows.iter().map(|r| r.0).collect();
+    let ib: Vec<usize> = rows.iter().map(|r| r.1).collect();
+    let sqrt_n: Vec<f64> = rows.iter().map(|r| (r.2.0 as f64).sqrt()).collect();
+    let d = build_design(&ia, la, &ib, lb, |r| sqrt_n[r], coding);
+    let yv = DVector::from_iterator(rows.len(), rows.iter().zip(&sqrt_n).map(|(r, w)| w * r.2.1));
+    let rss = |cols: &[usize]| {
+        let (rss, rank) = rss_and_rank(&d.x, &yv, cols);
+        (ss_within + rss, rank)
+    };
+    finish_table(&d, n as usize, ss_type, rss)
+}
+
+/// The ANOVA table from a design and its RSS function (RSS and rank for a column set).
+fn finish_table(
+    d: &Design,
+    n: usize,
+    ss_type: SsType,
+    rss_of: impl Fn(&[usize]) -> (f64, usize),
+) -> Result<AnovaTable> {
     let full = with_terms(&[&d.a, &d.b, &d.ab]);
-    let (rss_full, rank_full) = rss_and_rank(&d.x, &yv, &full);
-    if rank_full < full.len() || y.len() <= rank_full {
+    let (rss_full, rank_full) = rss_of(&full);
+    if rank_full < full.len() || n <= rank_full {
         return Err(StatsError::RankDeficient {
             what: "two-way ANOVA",
             detail: format!(
-                "rank {rank_full} of {} columns with n = {} (empty cell?)",
+                "rank {rank_full} of {} columns with n = {n} (empty cell?)",
                 full.len(),
-                y.len()
             ),
         });
     }
-    let rss = |terms: &[&Vec<usize>]| rss_and_rank(&d.x, &yv, &with_terms(terms)).0;
+    let rss = |terms: &[&Vec<usize>]| rss_of(&with_terms(terms)).0;
     let (ss_a, ss_b, ss_ab) = match ss_type {
         SsType::I => (
             rss(&[]) - rss(&[&d.a]),
@@ -307,7 +454,7 @@ pub(crate) fn two_way_coded<S: AsRef<str>, T: AsRef<str>>(
             rss(&[&d.a, &d.b]) - rss_full,
         ),
     };
-    let df_res = (y.len() - rank_full) as f64;
+    let df_res = (n - rank_full) as f64;
     if rss_full == 0.0 {
         return Err(StatsError::ZeroVariance {
             what: "two-way ANOVA (residual)",
@@ -340,6 +487,27 @@ pub(crate) fn two_way_coded<S: AsRef<str>, T: AsRef<str>>(
         },
     ];
     Ok(AnovaTable { ss_type, rows })
+}
+
+/// The reference path: OLS on every observation (one design row each). Same results as
+/// [`two_way_cells_coded`], at a cost that grows with the number of observations; kept to check
+/// the cell path and to pin the treatment-coding pitfall.
+#[cfg(test)]
+pub(crate) fn two_way_observations<S: AsRef<str>, T: AsRef<str>>(
+    a: &[S],
+    b: &[T],
+    y: &[f64],
+    ss_type: SsType,
+    coding: Coding,
+) -> Result<AnovaTable> {
+    check_same_len("two-way ANOVA (A vs y)", a.len(), y.len())?;
+    check_same_len("two-way ANOVA (B vs y)", b.len(), y.len())?;
+    check_finite("two-way ANOVA y", y)?;
+    let ((la, ia), (lb, ib)) = (encode_levels(a), encode_levels(b));
+    check_levels(la.len(), lb.len())?;
+    let d = build_design(&ia, la.len(), &ib, lb.len(), |_| 1.0, coding);
+    let yv = DVector::from_column_slice(y);
+    finish_table(&d, y.len(), ss_type, |cols| rss_and_rank(&d.x, &yv, cols))
 }
 
 // ------------------------------------------------------------------------------- repeated measures
@@ -547,11 +715,67 @@ mod tests {
     fn type_three_with_treatment_coding_is_the_known_wrong_answer() {
         // statsmodels anova_lm(ols("y ~ C(A) * C(B)"), typ=3): SS(A) = 2.667 tests A at B's
         // reference level only — the pitfall sum-to-zero contrasts avoid.
-        let t = two_way_coded(&TW_A, &TW_B, &TW_Y, SsType::III, Coding::Treatment).unwrap();
+        let t = two_way_observations(&TW_A, &TW_B, &TW_Y, SsType::III, Coding::Treatment).unwrap();
+        let cells = cells_of(&TW_A, &TW_B, &TW_Y);
+        let t_cells = two_way_cells_coded(&cells, SsType::III, Coding::Treatment).unwrap();
+        assert_close_tol("cell path, treatment-coded SS(A)", t_cells.row("A").unwrap().ss, t.row("A").unwrap().ss, IDENTITY_TOL);
         let wrong = r("anova_twoway_unbalanced/typ3_with_treatment_coding_WRONG/A_SS");
         assert_close("treatment-coded SS(A)", t.row("A").unwrap().ss, wrong);
         let right = two_way(&TW_A, &TW_B, &TW_Y, SsType::III).unwrap();
         assert!((right.row("A").unwrap().ss - wrong).abs() > 1.0);
+    }
+
+    fn cells_of(a: &[&str], b: &[&str], y: &[f64]) -> TwoWayCells {
+        let mut cells = TwoWayCells::new();
+        for ((a, b), y) in a.iter().zip(b).zip(y) {
+            cells.push(a, b, *y);
+        }
+        cells
+    }
+
+    #[test]
+    fn cell_path_equals_observation_path() {
+        // Identity: RSS = SS_within + weighted RSS on cell means, for every model of the layout.
+        let cells = cells_of(&TW_A, &TW_B, &TW_Y);
+        assert_eq!(cells.n(), TW_Y.len());
+        for ty in [SsType::I, SsType::II, SsType::III] {
+            let obs = two_way_observations(&TW_A, &TW_B, &TW_Y, ty, Coding::Sum).unwrap();
+            let fast = two_way_cells(&cells, ty).unwrap();
+            assert_eq!(obs.rows.len(), fast.rows.len());
+            for (o, f) in obs.rows.iter().zip(&fast.rows) {
+                let what = format!("{ty:?} {}", o.term);
+                assert_eq!(o.term, f.term);
+                assert_eq!(o.df, f.df, "{what} df");
+                assert_close_tol(&format!("{what} SS"), f.ss, o.ss, IDENTITY_TOL);
+                for (name, x, y) in [("F", f.f, o.f), ("p", f.p, o.p), ("partial eta2", f.partial_eta2, o.partial_eta2)] {
+                    assert_eq!(x.is_some(), y.is_some(), "{what} {name}");
+                    if let (Some(x), Some(y)) = (x, y) {
+                        assert_close_tol(&format!("{what} {name}"), x, y, IDENTITY_TOL);
+                    }
+                }
+            }
+        }
+        // Observations pushed in another order, and levels first seen in another order, give
+        // the same table (levels are sorted before the design is built).
+        let mut order: Vec<usize> = (0..TW_Y.len()).collect();
+        order.reverse();
+        let mut shuffled = TwoWayCells::new();
+        for &i in &order {
+            shuffled.push(TW_A[i], TW_B[i], TW_Y[i]);
+        }
+        let (x, y) = (two_way_cells(&shuffled, SsType::III).unwrap(), two_way_cells(&cells, SsType::III).unwrap());
+        for (r1, r2) in x.rows.iter().zip(&y.rows) {
+            assert_close_tol(&r1.term, r1.ss, r2.ss, IDENTITY_TOL);
+        }
+    }
+
+    #[test]
+    fn cell_path_rejects_non_finite_and_one_level() {
+        let mut cells = cells_of(&TW_A, &TW_B, &TW_Y);
+        cells.push("a1", "b1", f64::NAN);
+        assert!(matches!(two_way_cells(&cells, SsType::II), Err(StatsError::NonFinite { index: 21, .. })));
+        let one = cells_of(&["a", "a", "a"], &["x", "y", "y"], &[1.0, 2.0, 3.0]);
+        assert!(matches!(two_way_cells(&one, SsType::II), Err(StatsError::InvalidParameter { .. })));
     }
 
     #[test]
