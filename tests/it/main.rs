@@ -4,4 +4,6 @@ mod analyze;
 mod cli;
 mod golden;
 mod render;
+mod server;
 mod stimuli;
+mod study;
