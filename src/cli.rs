@@ -143,6 +143,10 @@ enum Command {
     #[command(after_help = "Examples:\n  facslab export --study exp3 --db lab.db -o responses.csv\n  facslab export --study exp3 --format wide.csv --all --db lab.db -o wide.csv")]
     Export(crate::web::cli::ExportArgs),
 
+    /// The validation report of a study, straight from the study database.
+    #[command(after_help = "Examples:\n  facslab report --study exp3 --db lab.db -o exp3-report\n  facslab report --study exp1 --db lab.db -o strict --match-side --match-intensity\n\nExports the study's long responses (kept in OUTPUT.inputs/responses.csv) and analyses them\nagainst the manifest of the study's stimulus set, as `facslab analyze` does.")]
+    Report(crate::web::cli::ReportArgs),
+
     /// Write synthetic responses and a manifest shaped like one of the seed's experiments.
     #[command(after_help = "Examples:\n  facslab simulate --design exp1 --seed 1 -o sim1           # 3 coders, 49 single AUs\n  facslab simulate --design exp2 --accuracy 0.8 -o sim2       # 54 AU combinations\n  facslab simulate --design exp3 --participants 40 --groups local,amt --missing 0.02 -o sim3\n\nWrites DIR/responses.csv and DIR/manifest.csv; the same options give the same bytes.")]
     Simulate(crate::analysis::cli::SimulateArgs),
@@ -220,6 +224,7 @@ fn dispatch(command: Command) -> anyhow::Result<()> {
         Command::Study(command) => crate::web::cli::study_command(command),
         Command::Admin(command) => crate::web::cli::admin_command(command),
         Command::Export(args) => crate::web::cli::export_command(args),
+        Command::Report(args) => crate::web::cli::report_command(args),
         Command::Catalog => {
             for unit in Catalog::built_in().iter() {
                 let side = if unit.unilateral { "L/R" } else { "" };

@@ -106,26 +106,12 @@ async fn log_transition(conn: &mut SqliteConnection, participant: i64, from: Opt
 }
 
 /// Moves a participation along the state machine (refusing moves the machine does not have).
-async fn transition(conn: &mut SqliteConnection, p: &Participation, to: SessionState, reason: &str) -> Result<(), DbError> {
-    if !p.state.can_become(to) {
-        return Err(DbError::Conflict(format!("this participation is {} and cannot become {to}", p.state)));
+async fn transition(conn: &mut SqliteConnection, id: i64, from: SessionState, to: SessionState, reason: &str) -> Result<(), DbError> {
+    if !from.can_become(to) {
+        return Err(DbError::Conflict(format!("this participation is {from} and cannot become {to}")));
     }
-    sqlx::query("UPDATE participants SET state = ?, updated_at = ? WHERE id = ?").bind(to.as_str()).bind(now_ms()).bind(p.id).execute(&mut *conn).await?;
-    log_transition(conn, p.id, Some(p.state), to, reason).await
-}
-
-/// A participation's state and how many of its trials have no answer yet.
-async fn standing(conn: &mut SqliteConnection, participant: i64) -> Result<(SessionState, i64), DbError> {
-    let row = sqlx::query(
-        "SELECT p.state, (SELECT COUNT(*) FROM trials t WHERE t.participant_id = p.id
-             AND NOT EXISTS (SELECT 1 FROM responses r WHERE r.participant_id = t.participant_id AND r.position = t.position))
-         FROM participants p WHERE p.id = ?",
-    )
-    .bind(participant)
-    .fetch_one(&mut *conn)
-    .await?;
-    let state: String = row.get(0);
-    Ok((SessionState::parse(&state).ok_or_else(|| DbError::Conflict(format!("unknown state \"{state}\"")))?, row.get(1)))
+    sqlx::query("UPDATE participants SET state = ?, updated_at = ? WHERE id = ?").bind(to.as_str()).bind(now_ms()).bind(id).execute(&mut *conn).await?;
+    log_transition(conn, id, Some(from), to, reason).await
 }
 
 async fn load_by_token(conn: &mut SqliteConnection, token: &str) -> Result<Participation, DbError> {
@@ -233,7 +219,7 @@ impl Db {
             return Ok(());
         }
         sqlx::query("UPDATE participants SET consent_sha256 = ? WHERE id = ?").bind(consent_sha256).bind(p.id).execute(&mut *tx).await?;
-        transition(&mut tx, &p, SessionState::Active, "consent given").await?;
+        transition(&mut tx, p.id, p.state, SessionState::Active, "consent given").await?;
         tx.commit().await?;
         Ok(())
     }
@@ -261,32 +247,45 @@ impl Db {
     /// answered trial under a new key is a conflict. Completes the participation with its last
     /// trial, or screens it out when attention checks fail too often.
     pub async fn save_response(&self, token: &str, position: i64, key: &str, answer: &Answer, timing: SaveTiming, design: &StudyDesign) -> Result<SaveOutcome, DbError> {
+        let answers = serde_json::to_string(&answer.0).map_err(|e| DbError::Conflict(e.to_string()))?;
         let mut tx = self.immediate().await?;
-        let p = load_by_token(&mut tx, token).await?;
-        let earlier = sqlx::query("SELECT participant_id, position FROM responses WHERE idempotency_key = ?").bind(key).fetch_optional(&mut *tx).await?;
-        if let Some(row) = earlier {
-            if row.get::<i64, _>(0) == p.id && row.get::<i64, _>(1) == position {
-                let (state, remaining) = standing(&mut tx, p.id).await?;
-                return Ok(SaveOutcome { saved: Saved::Repeated, state, remaining });
-            }
-            return Err(DbError::Conflict("this idempotency key belongs to another answer".into()));
+        // Everything the checks need, in one statement (each statement is a round trip to
+        // SQLite's worker thread, and the writer is the bottleneck under load).
+        let row = sqlx::query(
+            "SELECT p.id, p.state, t.kind IS NOT NULL, t.check_index,
+                    (SELECT r.participant_id = p.id AND r.position = ?2 FROM responses r WHERE r.idempotency_key = ?3),
+                    EXISTS (SELECT 1 FROM responses r WHERE r.participant_id = p.id AND r.position = ?2),
+                    (SELECT COUNT(*) FROM trials u WHERE u.participant_id = p.id
+                        AND NOT EXISTS (SELECT 1 FROM responses r WHERE r.participant_id = u.participant_id AND r.position = u.position))
+             FROM participants p LEFT JOIN trials t ON t.participant_id = p.id AND t.position = ?2
+             WHERE p.token = ?1",
+        )
+        .bind(token)
+        .bind(position)
+        .bind(key)
+        .fetch_optional(&mut *tx)
+        .await?
+        .ok_or_else(|| DbError::NotFound("no such participation".into()))?;
+        let (id, state_text, trial_exists, check, key_match, answered, remaining): (i64, String, bool, Option<i64>, Option<bool>, bool, i64) =
+            (row.get(0), row.get(1), row.get(2), row.get(3), row.get(4), row.get(5), row.get(6));
+        let state = SessionState::parse(&state_text).ok_or_else(|| DbError::Conflict(format!("unknown state \"{state_text}\"")))?;
+        match key_match {
+            Some(true) => return Ok(SaveOutcome { saved: Saved::Repeated, state, remaining }),
+            Some(false) => return Err(DbError::Conflict("this idempotency key belongs to another answer".into())),
+            None => {}
         }
-        if p.state != SessionState::Active {
-            return Err(DbError::Conflict(format!("this participation is {}, not active", p.state)));
+        if state != SessionState::Active {
+            return Err(DbError::Conflict(format!("this participation is {state}, not active")));
         }
-        let trial = sqlx::query("SELECT t.kind, t.check_index, r.id IS NOT NULL FROM trials t LEFT JOIN responses r ON r.participant_id = t.participant_id AND r.position = t.position WHERE t.participant_id = ? AND t.position = ?")
-            .bind(p.id)
-            .bind(position)
-            .fetch_optional(&mut *tx)
-            .await?
-            .ok_or_else(|| DbError::NotFound(format!("there is no trial {position}")))?;
-        if trial.get::<i64, _>(2) != 0 {
+        if !trial_exists {
+            return Err(DbError::NotFound(format!("there is no trial {position}")));
+        }
+        if answered {
             return Err(DbError::Conflict(format!("trial {position} is answered already")));
         }
-        let answers = serde_json::to_string(&answer.0).map_err(|e| DbError::Conflict(e.to_string()))?;
         let now = now_ms();
         sqlx::query("INSERT INTO responses (participant_id, position, idempotency_key, answers, rt_ms, video_ended, load_failed, received_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?)")
-            .bind(p.id)
+            .bind(id)
             .bind(position)
             .bind(key)
             .bind(&answers)
@@ -296,25 +295,25 @@ impl Db {
             .bind(now)
             .execute(&mut *tx)
             .await?;
-        let expires = now + i64::from(design.reservation_minutes) * 60_000;
-        sqlx::query("UPDATE participants SET updated_at = ?, expires_at = ? WHERE id = ?").bind(now).bind(expires).bind(p.id).execute(&mut *tx).await?;
-
-        let check: Option<i64> = trial.get(1);
-        if let Some(check) = check.and_then(|i| design.attention.checks.get(i as usize)) {
-            if !passes_check(answer, &check.measure, &check.value) {
-                let failures: i64 = sqlx::query("UPDATE participants SET attention_failures = attention_failures + 1 WHERE id = ? RETURNING attention_failures")
-                    .bind(p.id)
-                    .fetch_one(&mut *tx)
-                    .await?
-                    .get(0);
-                if failures >= i64::from(design.attention.max_failures) {
-                    transition(&mut tx, &p, SessionState::ScreenedOut, &format!("failed {failures} attention checks")).await?;
-                }
+        let remaining = remaining - 1;
+        let mut state = state;
+        if let Some(check) = check.and_then(|i| design.attention.checks.get(i as usize))
+            && !passes_check(answer, &check.measure, &check.value)
+        {
+            let failures: i64 = sqlx::query("UPDATE participants SET attention_failures = attention_failures + 1 WHERE id = ? RETURNING attention_failures")
+                .bind(id)
+                .fetch_one(&mut *tx)
+                .await?
+                .get(0);
+            if failures >= i64::from(design.attention.max_failures) {
+                transition(&mut tx, id, state, SessionState::ScreenedOut, &format!("failed {failures} attention checks")).await?;
+                state = SessionState::ScreenedOut;
             }
         }
-        let (mut state, remaining) = standing(&mut tx, p.id).await?;
+        let expires = now + i64::from(design.reservation_minutes) * 60_000;
+        sqlx::query("UPDATE participants SET updated_at = ?, expires_at = ? WHERE id = ?").bind(now).bind(expires).bind(id).execute(&mut *tx).await?;
         if remaining == 0 && state == SessionState::Active {
-            transition(&mut tx, &p, SessionState::Completed, "last trial saved").await?;
+            transition(&mut tx, id, state, SessionState::Completed, "last trial saved").await?;
             state = SessionState::Completed;
         }
         tx.commit().await?;
@@ -325,7 +324,7 @@ impl Db {
     pub async fn withdraw(&self, token: &str) -> Result<(), DbError> {
         let mut tx = self.immediate().await?;
         let p = load_by_token(&mut tx, token).await?;
-        transition(&mut tx, &p, SessionState::Withdrawn, "withdrawn by the participant").await?;
+        transition(&mut tx, p.id, p.state, SessionState::Withdrawn, "withdrawn by the participant").await?;
         tx.commit().await?;
         Ok(())
     }
@@ -352,7 +351,7 @@ impl Db {
         let n = expired.len();
         for row in expired {
             let p = participation(row)?;
-            transition(&mut tx, &p, SessionState::Abandoned, "reservation expired").await?;
+            transition(&mut tx, p.id, p.state, SessionState::Abandoned, "reservation expired").await?;
         }
         tx.commit().await?;
         Ok(n)

@@ -16,7 +16,7 @@ use axum::response::{IntoResponse, Redirect, Response};
 use axum::routing::{get, post};
 use serde_json::json;
 
-use super::{AppState, WebError};
+use super::{AppState, WebError, cookie, merge};
 use crate::db::admin::{AdminSession, Role};
 use crate::db::export::{Format, Scope, codebook};
 use crate::db::studies::set_stimuli;
@@ -40,10 +40,7 @@ pub fn routes() -> Router<AppState> {
 }
 
 fn session_cookie(headers: &HeaderMap) -> Option<&str> {
-    headers.get_all(header::COOKIE).iter().filter_map(|v| v.to_str().ok()).flat_map(|v| v.split(';')).find_map(|pair| {
-        let (k, v) = pair.trim().split_once('=')?;
-        (k == COOKIE).then_some(v)
-    })
+    cookie(headers, COOKIE)
 }
 
 /// The logged-in admin with at least `role`.
@@ -85,12 +82,6 @@ fn base(session: Option<&AdminSession>, title: &str) -> serde_json::Value {
     json!({ "page_title": format!("{title} · facslab admin"), "header": "facslab admin", "session": session })
 }
 
-fn merge(mut a: serde_json::Value, b: serde_json::Value) -> serde_json::Value {
-    if let (Some(a), serde_json::Value::Object(b)) = (a.as_object_mut(), b) {
-        a.extend(b);
-    }
-    a
-}
 
 async fn login_page(State(app): State<AppState>) -> Response {
     or_login(app.render("admin_login.html", &merge(base(None, "Log in"), json!({ "error": null }))))

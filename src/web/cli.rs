@@ -228,26 +228,76 @@ pub fn admin_command(command: AdminCommand) -> anyhow::Result<()> {
     }
 }
 
+/// A whole export of a study as text.
+async fn export_text(db: &Db, slug: &str, file: &str, scope: Scope) -> anyhow::Result<String> {
+    let row = db.study_by_slug(slug).await?.with_context(|| format!("no study \"{slug}\" in this database"))?;
+    let design = row.design()?;
+    if file == "codebook.csv" {
+        return Ok(crate::db::export::codebook(&design));
+    }
+    let format = Format::parse(file).with_context(|| format!("unknown format \"{file}\" (responses.csv, wide.csv, responses.json, codebook.csv)"))?;
+    let stimuli = db.study_stimuli(row.id).await?.into_iter().map(|s| s.stimulus_id).collect();
+    let mut rx = db.export(row.id, &design, stimuli, format, scope);
+    let mut text = String::new();
+    while let Some(chunk) = rx.recv().await {
+        text.push_str(&chunk?);
+    }
+    Ok(text)
+}
+
 pub fn export_command(args: ExportArgs) -> anyhow::Result<()> {
     runtime()?.block_on(async {
         let db = open(&args.db).await?;
-        let row = db.study_by_slug(&args.study).await?.with_context(|| format!("no study \"{}\" in {}", args.study, args.db.display()))?;
-        let design = row.design()?;
-        let text = if args.format == "codebook.csv" {
-            crate::db::export::codebook(&design)
-        } else {
-            let format = Format::parse(&args.format).with_context(|| format!("unknown format \"{}\" (responses.csv, wide.csv, responses.json, codebook.csv)", args.format))?;
-            let stimuli = db.study_stimuli(row.id).await?.into_iter().map(|s| s.stimulus_id).collect();
-            let mut rx = db.export(row.id, &design, stimuli, format, if args.all { Scope::All } else { Scope::Completed });
-            let mut text = String::new();
-            while let Some(chunk) = rx.recv().await {
-                text.push_str(&chunk?);
-            }
-            text
-        };
+        let text = export_text(&db, &args.study, &args.format, if args.all { Scope::All } else { Scope::Completed }).await?;
         crate::stimuli::build::write_atomic(&args.output, text.as_bytes())?;
         println!("wrote {}", args.output.display());
         Ok(())
+    })
+}
+
+#[derive(Args)]
+pub struct ReportArgs {
+    /// The study's slug.
+    #[arg(long)]
+    pub study: String,
+    #[arg(long, default_value = "facslab.db")]
+    pub db: PathBuf,
+    /// Output directory for the report.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Include every participation except withdrawn ones (default: completed, not excluded).
+    #[arg(long)]
+    pub all: bool,
+    /// Count a coded AU as recognised only if its side matches.
+    #[arg(long)]
+    pub match_side: bool,
+    /// Count a coded AU as recognised only if its intensity letter matches.
+    #[arg(long)]
+    pub match_intensity: bool,
+}
+
+/// `facslab report --study`: the study's long export and its set's manifest, through `analyze`.
+/// The responses used are kept beside the report as `responses.csv`.
+pub fn report_command(args: ReportArgs) -> anyhow::Result<()> {
+    let (text, set_dir) = runtime()?.block_on(async {
+        let db = open(&args.db).await?;
+        let row = db.study_by_slug(&args.study).await?.with_context(|| format!("no study \"{}\" in {}", args.study, args.db.display()))?;
+        let text = export_text(&db, &args.study, "responses.csv", if args.all { Scope::All } else { Scope::Completed }).await?;
+        anyhow::Ok((text, PathBuf::from(row.set_dir)))
+    })?;
+    if text.lines().count() < 2 {
+        bail!("study \"{}\" has no responses to analyse yet (only completed, non-excluded participants count; --all adds the rest)", args.study);
+    }
+    let inputs = args.output.with_extension("inputs");
+    std::fs::create_dir_all(&inputs)?;
+    let responses = inputs.join("responses.csv");
+    crate::stimuli::build::write_atomic(&responses, text.as_bytes())?;
+    crate::analysis::cli::analyze(crate::analysis::cli::AnalyzeArgs {
+        responses,
+        manifest: set_dir.join("manifest.csv"),
+        output: args.output,
+        match_side: args.match_side,
+        match_intensity: args.match_intensity,
     })
 }
 

@@ -94,10 +94,10 @@ impl AppState {
     }
 
     pub async fn study_by_id(&self, id: i64) -> Result<Arc<LoadedStudy>, WebError> {
-        let row = self.db.study_by_id(id).await?.ok_or(WebError::NotFound)?;
-        if let Some(found) = self.studies.read().ok().and_then(|m| m.get(&row.slug).cloned()) {
+        if let Some(found) = self.studies.read().ok().and_then(|m| m.values().find(|s| s.row.id == id).cloned()) {
             return Ok(found);
         }
+        let row = self.db.study_by_id(id).await?.ok_or(WebError::NotFound)?;
         self.load(row).await
     }
 
@@ -110,6 +110,22 @@ impl AppState {
         }
         Ok(loaded)
     }
+}
+
+/// The value of cookie `name` in a request's headers.
+pub fn cookie<'a>(headers: &'a axum::http::HeaderMap, name: &str) -> Option<&'a str> {
+    headers.get_all(header::COOKIE).iter().filter_map(|v| v.to_str().ok()).flat_map(|v| v.split(';')).find_map(|pair| {
+        let (k, v) = pair.trim().split_once('=')?;
+        (k == name).then_some(v)
+    })
+}
+
+/// Adds the fields of JSON object `extra` to JSON object `base` (page contexts).
+pub fn merge(mut base: serde_json::Value, extra: serde_json::Value) -> serde_json::Value {
+    if let (Some(b), serde_json::Value::Object(e)) = (base.as_object_mut(), extra) {
+        b.extend(e);
+    }
+    base
 }
 
 /// The whole app.

@@ -15,7 +15,7 @@ use axum::routing::{get, post};
 use axum::{Json, Router};
 use serde_json::json;
 
-use super::{AppState, LoadedStudy, WebError};
+use super::{AppState, LoadedStudy, WebError, cookie, merge};
 use crate::db::participants::{Demographics, Participation, SaveOutcome, SaveTiming, Started, TrialRow};
 use crate::db::secret_token;
 use crate::facs::{Catalog, Region};
@@ -48,12 +48,6 @@ fn page<'a>(study: &'a LoadedStudy, title: &'a str) -> serde_json::Value {
     json!({ "page_title": format!("{title} · {}", study.design.title), "header": study.design.title })
 }
 
-fn merge(mut base: serde_json::Value, extra: serde_json::Value) -> serde_json::Value {
-    if let (Some(b), serde_json::Value::Object(e)) = (base.as_object_mut(), extra) {
-        b.extend(e);
-    }
-    base
-}
 
 /// The confirm page: nothing is created by a GET, so link previews cannot use up a link.
 async fn landing(State(app): State<AppState>, Path(slug): Path<String>, Query(query): Query<HashMap<String, String>>) -> Result<Response, WebError> {
@@ -95,12 +89,6 @@ fn cookie_name(slug: &str) -> String {
     format!("facslab_{slug}")
 }
 
-fn cookie<'a>(headers: &'a HeaderMap, name: &str) -> Option<&'a str> {
-    headers.get_all(header::COOKIE).iter().filter_map(|v| v.to_str().ok()).flat_map(|v| v.split(';')).find_map(|pair| {
-        let (k, v) = pair.trim().split_once('=')?;
-        (k == name).then_some(v)
-    })
-}
 
 async fn start(State(app): State<AppState>, Path(slug): Path<String>, headers: HeaderMap, Form(form): Form<Vec<(String, String)>>) -> Result<Response, WebError> {
     let study = app.study(&slug).await?;

@@ -135,6 +135,14 @@ impl Drop for Server {
     }
 }
 
+/// A lab with one open emotion study `slug`, its server and a client.
+pub fn emotion_lab(slug: &str, extra: &str) -> (Lab, Server, reqwest::Client) {
+    let lab = Lab::new();
+    lab.study(slug, &emotion_design(slug, extra));
+    let server = lab.serve();
+    (lab, server, client())
+}
+
 /// An HTTP client that does not follow redirects (tests look at them).
 pub fn client() -> reqwest::Client {
     reqwest::Client::builder().redirect(reqwest::redirect::Policy::none()).build().unwrap()

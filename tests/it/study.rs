@@ -19,10 +19,7 @@ async fn answer_all(http: &reqwest::Client, server: &Server, token: &str) -> Vec
 
 #[tokio::test(flavor = "multi_thread")]
 async fn study_participant_completes_and_admin_exports_the_long_csv() {
-    let lab = Lab::new();
-    lab.study("emo", &emotion_design("emo", "[recruitment]\nplatform = \"prolific\"\ncompletion_code = \"C0DE42\"\n"));
-    let server = lab.serve();
-    let http = client();
+    let (lab, server, http) = emotion_lab("emo", "[recruitment]\nplatform = \"prolific\"\ncompletion_code = \"C0DE42\"\n");
 
     // A GET of the link creates nothing (link previews), and the link needs the worker id.
     let landing = http.get(server.url("/s/emo?PROLIFIC_PID=w1&STUDY_ID=s&SESSION_ID=x")).send().await.unwrap();
@@ -66,14 +63,15 @@ async fn study_participant_completes_and_admin_exports_the_long_csv() {
     drop(server);
     facslab_ok(lab.path(), &["export", "--study", "emo", "--db", "lab.db", "-o", "cli.csv"]);
     assert_eq!(std::fs::read_to_string(lab.path().join("cli.csv")).unwrap(), csv);
+    // And the report straight from the database.
+    facslab_ok(lab.path(), &["report", "--study", "emo", "--db", "lab.db", "-o", "from-db"]);
+    assert_eq!(std::fs::read_to_string(lab.path().join("from-db.inputs/responses.csv")).unwrap(), csv);
+    assert!(lab.path().join("from-db/report.html").is_file());
 }
 
 #[tokio::test(flavor = "multi_thread")]
 async fn study_survives_a_crash_and_repeated_requests() {
-    let lab = Lab::new();
-    lab.study("emo", &emotion_design("emo", ""));
-    let server = lab.serve();
-    let http = client();
+    let (_lab, server, http) = emotion_lab("emo", "");
     let token = start(&http, &server, "emo", &[]).await;
     consent_and_demographics(&http, &server, &token).await;
 
@@ -146,10 +144,7 @@ fn normalise(html: &str, token: &str) -> String {
 
 #[tokio::test(flavor = "multi_thread")]
 async fn study_pages_reveal_nothing_about_the_stimulus() {
-    let lab = Lab::new();
-    lab.study("emo", &emotion_design("emo", ""));
-    let server = lab.serve();
-    let http = client();
+    let (lab, server, http) = emotion_lab("emo", "");
     let token = start(&http, &server, "emo", &[]).await;
     consent_and_demographics(&http, &server, &token).await;
     let manifest = lab.manifest();
@@ -188,10 +183,7 @@ async fn study_pages_reveal_nothing_about_the_stimulus() {
 
 #[tokio::test(flavor = "multi_thread")]
 async fn study_bad_input_gets_a_clear_4xx_and_stores_nothing() {
-    let lab = Lab::new();
-    lab.study("emo", &emotion_design("emo", ""));
-    let server = lab.serve();
-    let http = client();
+    let (lab, server, http) = emotion_lab("emo", "");
     let token = start(&http, &server, "emo", &[]).await;
     consent_and_demographics(&http, &server, &token).await;
     let position = current_position(&http, &server, &token).await.unwrap();
@@ -245,11 +237,8 @@ async fn study_bad_input_gets_a_clear_4xx_and_stores_nothing() {
 
 #[tokio::test(flavor = "multi_thread")]
 async fn study_attention_policy_screens_out_after_two_failures() {
-    let lab = Lab::new();
     let checks = "[attention]\nmax_failures = 2\nchecks = [{ instruction = \"Choose Surprise.\", measure = \"emotion\", value = \"surprise\" }, { instruction = \"Choose None.\", measure = \"emotion\", value = \"none\" }]\n[recruitment]\nplatform = \"prolific\"\ncompletion_code = \"OK\"\nscreened_out_code = \"NOPE\"\n";
-    lab.study("att", &emotion_design("att", checks));
-    let server = lab.serve();
-    let http = client();
+    let (_lab, server, http) = emotion_lab("att", checks);
     let token = start(&http, &server, "att", &[("PROLIFIC_PID", "w9")]).await;
     consent_and_demographics(&http, &server, &token).await;
     let mut last = serde_json::Value::Null;
