@@ -28,6 +28,9 @@ pub enum DbError {
     Conflict(String),
     #[error("{0}")]
     NotFound(String),
+    /// Nothing was written; the same request may be sent again.
+    #[error("not saved, please retry: {0}")]
+    Unavailable(String),
 }
 
 /// The two pools over one database file.
@@ -37,6 +40,8 @@ pub struct Db {
     writer: SqlitePool,
     /// Several connections for pages, progress and exports.
     reader: SqlitePool,
+    /// Trial saves, stored by the writer task in group commits.
+    saves: tokio::sync::mpsc::Sender<participants::PendingSave>,
 }
 
 static MIGRATOR: sqlx::migrate::Migrator = sqlx::migrate!("./migrations");
@@ -51,10 +56,12 @@ impl Db {
             .synchronous(SqliteSynchronous::Normal)
             .foreign_keys(true)
             .busy_timeout(Duration::from_secs(10));
-        let writer = SqlitePoolOptions::new().max_connections(1).connect_with(options.clone()).await?;
+        let writer = SqlitePoolOptions::new().max_connections(1).test_before_acquire(false).connect_with(options.clone()).await?;
         MIGRATOR.run(&writer).await?;
-        let reader = SqlitePoolOptions::new().max_connections(4).connect_with(options.read_only(true)).await?;
-        Ok(Db { writer, reader })
+        let reader = SqlitePoolOptions::new().max_connections(4).test_before_acquire(false).connect_with(options.read_only(true)).await?;
+        let (saves, queue) = tokio::sync::mpsc::channel(4096);
+        tokio::spawn(participants::write_saves(writer.clone(), queue));
+        Ok(Db { writer, reader, saves })
     }
 
     /// Writes a consistent copy of the database to `path` (`VACUUM INTO`, safe while serving).

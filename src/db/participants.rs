@@ -247,77 +247,20 @@ impl Db {
     /// answered trial under a new key is a conflict. Completes the participation with its last
     /// trial, or screens it out when attention checks fail too often.
     pub async fn save_response(&self, token: &str, position: i64, key: &str, answer: &Answer, timing: SaveTiming, design: &StudyDesign) -> Result<SaveOutcome, DbError> {
-        let answers = serde_json::to_string(&answer.0).map_err(|e| DbError::Conflict(e.to_string()))?;
-        let mut tx = self.immediate().await?;
-        // Everything the checks need, in one statement (each statement is a round trip to
-        // SQLite's worker thread, and the writer is the bottleneck under load).
-        let row = sqlx::query(
-            "SELECT p.id, p.state, t.kind IS NOT NULL, t.check_index,
-                    (SELECT r.participant_id = p.id AND r.position = ?2 FROM responses r WHERE r.idempotency_key = ?3),
-                    EXISTS (SELECT 1 FROM responses r WHERE r.participant_id = p.id AND r.position = ?2),
-                    (SELECT COUNT(*) FROM trials u WHERE u.participant_id = p.id
-                        AND NOT EXISTS (SELECT 1 FROM responses r WHERE r.participant_id = u.participant_id AND r.position = u.position))
-             FROM participants p LEFT JOIN trials t ON t.participant_id = p.id AND t.position = ?2
-             WHERE p.token = ?1",
-        )
-        .bind(token)
-        .bind(position)
-        .bind(key)
-        .fetch_optional(&mut *tx)
-        .await?
-        .ok_or_else(|| DbError::NotFound("no such participation".into()))?;
-        let (id, state_text, trial_exists, check, key_match, answered, remaining): (i64, String, bool, Option<i64>, Option<bool>, bool, i64) =
-            (row.get(0), row.get(1), row.get(2), row.get(3), row.get(4), row.get(5), row.get(6));
-        let state = SessionState::parse(&state_text).ok_or_else(|| DbError::Conflict(format!("unknown state \"{state_text}\"")))?;
-        match key_match {
-            Some(true) => return Ok(SaveOutcome { saved: Saved::Repeated, state, remaining }),
-            Some(false) => return Err(DbError::Conflict("this idempotency key belongs to another answer".into())),
-            None => {}
-        }
-        if state != SessionState::Active {
-            return Err(DbError::Conflict(format!("this participation is {state}, not active")));
-        }
-        if !trial_exists {
-            return Err(DbError::NotFound(format!("there is no trial {position}")));
-        }
-        if answered {
-            return Err(DbError::Conflict(format!("trial {position} is answered already")));
-        }
-        let now = now_ms();
-        sqlx::query("INSERT INTO responses (participant_id, position, idempotency_key, answers, rt_ms, video_ended, load_failed, received_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?)")
-            .bind(id)
-            .bind(position)
-            .bind(key)
-            .bind(&answers)
-            .bind(timing.rt_ms)
-            .bind(timing.video_ended)
-            .bind(timing.load_failed)
-            .bind(now)
-            .execute(&mut *tx)
-            .await?;
-        let remaining = remaining - 1;
-        let mut state = state;
-        if let Some(check) = check.and_then(|i| design.attention.checks.get(i as usize))
-            && !passes_check(answer, &check.measure, &check.value)
-        {
-            let failures: i64 = sqlx::query("UPDATE participants SET attention_failures = attention_failures + 1 WHERE id = ? RETURNING attention_failures")
-                .bind(id)
-                .fetch_one(&mut *tx)
-                .await?
-                .get(0);
-            if failures >= i64::from(design.attention.max_failures) {
-                transition(&mut tx, id, state, SessionState::ScreenedOut, &format!("failed {failures} attention checks")).await?;
-                state = SessionState::ScreenedOut;
-            }
-        }
-        let expires = now + i64::from(design.reservation_minutes) * 60_000;
-        sqlx::query("UPDATE participants SET updated_at = ?, expires_at = ? WHERE id = ?").bind(now).bind(expires).bind(id).execute(&mut *tx).await?;
-        if remaining == 0 && state == SessionState::Active {
-            transition(&mut tx, id, state, SessionState::Completed, "last trial saved").await?;
-            state = SessionState::Completed;
-        }
-        tx.commit().await?;
-        Ok(SaveOutcome { saved: Saved::Stored, state, remaining })
+        let (reply, outcome) = tokio::sync::oneshot::channel();
+        let save = PendingSave {
+            token: token.to_string(),
+            position,
+            key: key.to_string(),
+            answer: answer.clone(),
+            timing,
+            reservation_minutes: design.reservation_minutes,
+            checks: design.attention.checks.clone(),
+            max_failures: design.attention.max_failures,
+            reply,
+        };
+        self.saves.send(save).await.map_err(|_| DbError::Unavailable("the database is closing".into()))?;
+        outcome.await.map_err(|_| DbError::Unavailable("the database is closing".into()))?
     }
 
     /// The participant withdraws: their answers stay stored but leave every export.
@@ -420,4 +363,138 @@ async fn insert_plan(conn: &mut SqliteConnection, participant: i64, plan: &[Plan
             .await?;
     }
     Ok(())
+}
+
+/// A save waiting for the writer task.
+#[derive(Debug)]
+pub(crate) struct PendingSave {
+    token: String,
+    position: i64,
+    key: String,
+    answer: Answer,
+    timing: SaveTiming,
+    reservation_minutes: u32,
+    checks: Vec<crate::study::design::AttentionCheck>,
+    max_failures: u32,
+    reply: tokio::sync::oneshot::Sender<Result<SaveOutcome, DbError>>,
+}
+
+/// Most saves committed together.
+const BATCH: usize = 128;
+
+/// The writer task: takes the saves that are waiting (up to [`BATCH`]) and stores them in one
+/// `BEGIN IMMEDIATE` transaction (group commit), then answers each. A save that fails its
+/// checks writes nothing and gets its own error; an SQL error rolls the whole batch back and
+/// every save in it gets the error (the clients retry with the same keys).
+pub(crate) async fn write_saves(writer: sqlx::SqlitePool, mut saves: tokio::sync::mpsc::Receiver<PendingSave>) {
+    while let Some(first) = saves.recv().await {
+        let mut batch = vec![first];
+        while batch.len() < BATCH {
+            match saves.try_recv() {
+                Ok(save) => batch.push(save),
+                Err(_) => break,
+            }
+        }
+        let outcomes = async {
+            let mut tx = writer.begin_with("BEGIN IMMEDIATE").await?;
+            let mut outcomes = Vec::with_capacity(batch.len());
+            for save in &batch {
+                match save_in(&mut tx, save).await {
+                    Err(DbError::Sql(e)) => return Err(DbError::Sql(e)),
+                    other => outcomes.push(other),
+                }
+            }
+            tx.commit().await?;
+            Ok::<_, DbError>(outcomes)
+        }
+        .await;
+        match outcomes {
+            Ok(outcomes) => {
+                for (save, outcome) in batch.into_iter().zip(outcomes) {
+                    let _ = save.reply.send(outcome);
+                }
+            }
+            Err(e) => {
+                let message = e.to_string();
+                for save in batch {
+                    let _ = save.reply.send(Err(DbError::Unavailable(message.clone())));
+                }
+            }
+        }
+    }
+}
+
+/// One save inside the writer's transaction.
+async fn save_in(tx: &mut SqliteConnection, save: &PendingSave) -> Result<SaveOutcome, DbError> {
+    let PendingSave { token, position, key, answer, timing, .. } = save;
+    let position = *position;
+    let answers = serde_json::to_string(&answer.0).map_err(|e| DbError::Conflict(e.to_string()))?;
+    // Everything the checks need, in one statement (each statement is a round trip to
+    // SQLite's worker thread, and the writer is the bottleneck under load).
+    let row = sqlx::query(
+        "SELECT p.id, p.state, t.kind IS NOT NULL, t.check_index,
+                (SELECT r.participant_id = p.id AND r.position = ?2 FROM responses r WHERE r.idempotency_key = ?3),
+                EXISTS (SELECT 1 FROM responses r WHERE r.participant_id = p.id AND r.position = ?2),
+                (SELECT COUNT(*) FROM trials u WHERE u.participant_id = p.id
+                    AND NOT EXISTS (SELECT 1 FROM responses r WHERE r.participant_id = u.participant_id AND r.position = u.position))
+         FROM participants p LEFT JOIN trials t ON t.participant_id = p.id AND t.position = ?2
+         WHERE p.token = ?1",
+    )
+    .bind(token)
+    .bind(position)
+    .bind(key)
+    .fetch_optional(&mut *tx)
+    .await?
+    .ok_or_else(|| DbError::NotFound("no such participation".into()))?;
+    let (id, state_text, trial_exists, check, key_match, answered, remaining): (i64, String, bool, Option<i64>, Option<bool>, bool, i64) =
+        (row.get(0), row.get(1), row.get(2), row.get(3), row.get(4), row.get(5), row.get(6));
+    let state = SessionState::parse(&state_text).ok_or_else(|| DbError::Conflict(format!("unknown state \"{state_text}\"")))?;
+    match key_match {
+        Some(true) => return Ok(SaveOutcome { saved: Saved::Repeated, state, remaining }),
+        Some(false) => return Err(DbError::Conflict("this idempotency key belongs to another answer".into())),
+        None => {}
+    }
+    if state != SessionState::Active {
+        return Err(DbError::Conflict(format!("this participation is {state}, not active")));
+    }
+    if !trial_exists {
+        return Err(DbError::NotFound(format!("there is no trial {position}")));
+    }
+    if answered {
+        return Err(DbError::Conflict(format!("trial {position} is answered already")));
+    }
+    let now = now_ms();
+    sqlx::query("INSERT INTO responses (participant_id, position, idempotency_key, answers, rt_ms, video_ended, load_failed, received_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?)")
+        .bind(id)
+        .bind(position)
+        .bind(key)
+        .bind(&answers)
+        .bind(timing.rt_ms)
+        .bind(timing.video_ended)
+        .bind(timing.load_failed)
+        .bind(now)
+        .execute(&mut *tx)
+        .await?;
+    let remaining = remaining - 1;
+    let mut state = state;
+    if let Some(check) = check.and_then(|i| save.checks.get(i as usize))
+        && !passes_check(answer, &check.measure, &check.value)
+    {
+        let failures: i64 = sqlx::query("UPDATE participants SET attention_failures = attention_failures + 1 WHERE id = ? RETURNING attention_failures")
+            .bind(id)
+            .fetch_one(&mut *tx)
+            .await?
+            .get(0);
+        if failures >= i64::from(save.max_failures) {
+            transition(tx, id, state, SessionState::ScreenedOut, &format!("failed {failures} attention checks")).await?;
+            state = SessionState::ScreenedOut;
+        }
+    }
+    let expires = now + i64::from(save.reservation_minutes) * 60_000;
+    sqlx::query("UPDATE participants SET updated_at = ?, expires_at = ? WHERE id = ?").bind(now).bind(expires).bind(id).execute(&mut *tx).await?;
+    if remaining == 0 && state == SessionState::Active {
+        transition(tx, id, state, SessionState::Completed, "last trial saved").await?;
+        state = SessionState::Completed;
+    }
+    Ok(SaveOutcome { saved: Saved::Stored, state, remaining })
 }

@@ -304,10 +304,13 @@ pub struct StudyDesign {
 }
 
 /// The answer labels of the emotion task: the EmFACS labels (with neutral) and "none".
-pub fn emotion_choices() -> Vec<String> {
-    let mut labels: Vec<String> = EmotionTable::built_in().iter().map(|e| e.label.clone()).collect();
-    labels.push("none".into());
-    labels
+pub fn emotion_choices() -> &'static [String] {
+    static CHOICES: std::sync::OnceLock<Vec<String>> = std::sync::OnceLock::new();
+    CHOICES.get_or_init(|| {
+        let mut labels: Vec<String> = EmotionTable::built_in().iter().map(|e| e.label.clone()).collect();
+        labels.push("none".into());
+        labels
+    })
 }
 
 /// The believability item of the emotion task (HapFACS: 1 = not believable … 5 = very believable).
