@@ -352,15 +352,15 @@ pub struct ParticipantSummary {
 }
 
 async fn insert_plan(conn: &mut SqliteConnection, participant: i64, plan: &[PlannedTrial]) -> Result<(), DbError> {
-    for (position, t) in plan.iter().enumerate() {
-        sqlx::query("INSERT INTO trials (participant_id, position, kind, stimulus_id, check_index) VALUES (?, ?, ?, ?, ?)")
-            .bind(participant)
-            .bind(position as i64)
-            .bind(t.kind.as_str())
-            .bind(&t.stimulus_id)
-            .bind(t.check_index.map(|i| i as i64))
-            .execute(&mut *conn)
-            .await?;
+    // One multi-row INSERT per 100 trials: one round trip instead of one per trial.
+    for chunk in plan.chunks(100).enumerate() {
+        let (first, trials) = chunk;
+        let sql = format!("INSERT INTO trials (participant_id, position, kind, stimulus_id, check_index) VALUES {}", vec!["(?, ?, ?, ?, ?)"; trials.len()].join(", "));
+        let mut query = sqlx::query(sqlx::AssertSqlSafe(sql));
+        for (offset, t) in trials.iter().enumerate() {
+            query = query.bind(participant).bind((first * 100 + offset) as i64).bind(t.kind.as_str()).bind(&t.stimulus_id).bind(t.check_index.map(|i| i as i64));
+        }
+        query.execute(&mut *conn).await?;
     }
     Ok(())
 }
