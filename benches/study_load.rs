@@ -19,6 +19,13 @@ fn main() {
 const PARTICIPANTS: usize = 500;
 const TRIALS: usize = 20;
 
+/// Arrivals are spread evenly over this time (default 5,000 ms: 100 new participants a second),
+/// so the last start while the first are mid-study and then all 500 work concurrently.
+/// `FACSLAB_LOAD_RAMP_MS` overrides.
+fn ramp() -> Duration {
+    Duration::from_millis(std::env::var("FACSLAB_LOAD_RAMP_MS").ok().and_then(|v| v.parse().ok()).unwrap_or(5000))
+}
+
 /// Pause between a participant's saves (looking at the next face), in milliseconds; 0 makes
 /// every participant save as fast as the server answers. `FACSLAB_LOAD_THINK_MS` overrides.
 fn think() -> Duration {
@@ -58,8 +65,8 @@ async fn participant(http: reqwest::Client, base: Arc<String>, worker: usize) ->
     }
     let mut latencies = Vec::with_capacity(TRIALS);
     let pause = think();
-    // Participants arrive spread over one think time, not all in the same millisecond.
-    tokio::time::sleep(pause.mul_f64((worker % 100) as f64 / 100.0)).await;
+    // Participants arrive evenly over the ramp-up, then all work at once.
+    tokio::time::sleep(ramp().mul_f64(worker as f64 / PARTICIPANTS as f64)).await;
     for position in 0..TRIALS {
         tokio::time::sleep(pause).await;
         let body = format!(
@@ -118,7 +125,8 @@ fn saves_from_500_concurrent_participants(bencher: divan::Bencher) {
         run.latencies.sort();
         let saves = run.latencies.len();
         println!(
-            "{PARTICIPANTS} participants, think {} ms, {saves} saves in {:.2} s: {:.0} saves/s, p50 {:.1} ms, p99 {:.1} ms, max {:.1} ms, errors {}, stored {} (lost {})",
+            "{PARTICIPANTS} participants, ramp {} ms, think {} ms, {saves} saves in {:.2} s: {:.0} saves/s, p50 {:.1} ms, p99 {:.1} ms, max {:.1} ms, errors {}, stored {} (lost {})",
+            ramp().as_millis(),
             think().as_millis(),
             run.wall.as_secs_f64(),
             saves as f64 / run.wall.as_secs_f64(),
