@@ -32,6 +32,33 @@
     stimulus.addEventListener('error', failed);
   }
 
+  // AU coding: choosing an AU's intensity or side marks the AU, unmarking it sets its menus
+  // back, and "No AU present" is exclusive with the AUs.
+  const none = form.elements.no_aus;
+  if (none) {
+    const rows = Array.from(form.querySelectorAll('.au'));
+    rows.forEach(function (row) {
+      const box = row.querySelector('input[name=au]');
+      const menus = row.querySelectorAll('select');
+      menus.forEach(function (menu) {
+        menu.addEventListener('change', function () {
+          if (menu.value !== '') { box.checked = true; none.checked = false; }
+        });
+      });
+      box.addEventListener('change', function () {
+        if (box.checked) none.checked = false;
+        else menus.forEach(function (menu) { menu.value = ''; });
+      });
+    });
+    none.addEventListener('change', function () {
+      if (!none.checked) return;
+      rows.forEach(function (row) {
+        row.querySelector('input[name=au]').checked = false;
+        row.querySelectorAll('select').forEach(function (menu) { menu.value = ''; });
+      });
+    });
+  }
+
   function pending() {
     try { return JSON.parse(localStorage.getItem(queueKey) || '[]'); } catch (e) { return []; }
   }

@@ -150,6 +150,15 @@ fn coded_aus(fields: &mut Fields<'_>, design: &StudyDesign) -> Result<String, An
         };
         terms.push(format!("{side}{number}{letter}"));
     }
+    // The page has an intensity and a side menu for every AU: those of unmarked AUs come empty
+    // and mean nothing; a value in one is a slip the coder is told about.
+    for (name, value) in fields.take_matching(|n| n.starts_with("intensity_") || n.starts_with("side_")) {
+        if !value.is_empty() {
+            let (what, au) = name.split_once('_').unwrap_or((name, ""));
+            let what = if what == "side" { "a side" } else { "an intensity" };
+            return Err(fail(name, format!("AU {au} has {what} but is not marked: mark it, or set the menu back")));
+        }
+    }
     let text = terms.join("+");
     let expression = catalog.parse(&text).map_err(|e| fail("au", e.to_string()))?;
     Ok(if expression.is_neutral() { String::new() } else { expression.to_string() })
@@ -169,6 +178,13 @@ impl<'a> Fields<'a> {
         let (taken, rest): (Vec<_>, Vec<_>) = self.pairs.iter().partition(|(n, _)| *n == name);
         self.pairs = rest;
         taken.into_iter().map(|(_, v)| v).collect()
+    }
+
+    /// Takes every field whose name passes `wanted`, with its value.
+    fn take_matching(&mut self, wanted: impl Fn(&str) -> bool) -> Vec<(&'a str, &'a str)> {
+        let (taken, rest): (Vec<_>, Vec<_>) = self.pairs.iter().partition(|(n, _)| wanted(n));
+        self.pairs = rest;
+        taken
     }
 
     fn take_one(&mut self, name: &str) -> Result<Option<&'a str>, AnswerError> {
@@ -246,6 +262,13 @@ mod tests {
         assert_eq!(submit(&[]).answer(&d).unwrap_err().field, "au");
         assert_eq!(submit(&[("au", "99")]).answer(&d).unwrap_err().field, "au");
         assert_eq!(submit(&[("au", "1"), ("intensity_1", "F")]).answer(&d).unwrap_err().field, "intensity_1");
+        // The form sends the empty menus of every AU not marked; a value there is refused.
+        let form = [("au", "12"), ("intensity_12", "C"), ("side_12", "L"), ("intensity_1", ""), ("side_1", ""), ("intensity_17", "")];
+        assert_eq!(submit(&form).answer(&d).unwrap().get("aus"), Some("L12C"));
+        assert_eq!(submit(&[("no_aus", "1"), ("intensity_1", ""), ("side_2", "")]).answer(&d).unwrap().get("aus"), Some(""));
+        let slip = submit(&[("au", "12"), ("intensity_4", "B")]).answer(&d).unwrap_err();
+        assert_eq!((slip.field.as_str(), slip.message.as_str()), ("intensity_4", "AU 4 has an intensity but is not marked: mark it, or set the menu back"));
+        assert_eq!(submit(&[("au", "12"), ("side_1", "R")]).answer(&d).unwrap_err().field, "side_1");
         let plain = design("au_coding", "");
         assert_eq!(submit(&[("au", "1"), ("side_1", "L")]).answer(&plain).unwrap_err().field, "side_1");
     }

@@ -4,6 +4,7 @@ mod analyze;
 mod balance;
 mod browser;
 mod cli;
+mod e2e;
 mod golden;
 mod render;
 mod server;
