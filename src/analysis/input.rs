@@ -1,4 +1,6 @@
-//! Errors and CSV plumbing shared by the response and manifest readers.
+//! Errors and table plumbing shared by the response and manifest readers.
+//!
+//! In: a CSV file. Out: its header and its data rows as text cells, through one row loop.
 //!
 //! Every error names the file, and where a cell is at fault, the data row (1-based, the header
 //! not counted), the file line, and the column name, so a user can go straight to the cell.
@@ -20,11 +22,16 @@ pub enum InputError {
     Empty { file: PathBuf },
 }
 
-/// A CSV file opened for reading by column name.
-pub(crate) struct CsvInput {
+/// A table opened for reading by column name.
+pub(crate) struct TableInput {
     pub file: PathBuf,
-    reader: csv::Reader<Box<dyn std::io::Read>>,
+    rows: Rows,
     header: csv::StringRecord,
+}
+
+/// Where a table's rows come from.
+enum Rows {
+    Csv(csv::Reader<Box<dyn std::io::Read>>),
 }
 
 /// Where a record sits, for error messages.
@@ -34,16 +41,18 @@ pub(crate) struct Place {
     pub line: u64,
 }
 
-impl CsvInput {
+impl TableInput {
+    /// Opens a CSV file.
     pub fn open(path: &Path) -> Result<Self, InputError> {
         let file = std::fs::File::open(path).map_err(|source| InputError::Io { file: path.into(), source })?;
         Self::from_reader(path, Box::new(std::io::BufReader::with_capacity(1 << 20, file)))
     }
 
+    /// Reads CSV from `read` (`path` is used in error messages).
     pub fn from_reader(path: &Path, read: Box<dyn std::io::Read>) -> Result<Self, InputError> {
         let mut reader = csv::ReaderBuilder::new().has_headers(true).flexible(false).from_reader(read);
         let header = reader.headers().map_err(|e| csv_error(path, &e))?.clone();
-        Ok(Self { file: path.into(), reader, header })
+        Ok(Self { file: path.into(), rows: Rows::Csv(reader), header })
     }
 
     /// The header's column names.
@@ -60,23 +69,52 @@ impl CsvInput {
         })
     }
 
-    /// Calls `each` for every data row with its place; stops at the first error.
+    /// Calls `each` for every data row with its place; stops at the first error. A cell that
+    /// is not UTF-8 is an error naming its row and column.
     pub fn for_each(
         &mut self,
         mut each: impl FnMut(&csv::StringRecord, Place) -> Result<(), InputError>,
     ) -> Result<u64, InputError> {
-        let mut record = csv::StringRecord::new();
-        let mut row = 0;
-        loop {
-            match self.reader.read_record(&mut record) {
-                Ok(false) => break,
-                Ok(true) => {
-                    row += 1;
-                    let line = record.position().map_or(row + 1, |p| p.line());
-                    each(&record, Place { row, line })?;
+        let (file, header) = (self.file.clone(), self.header.clone());
+        self.for_each_bytes_mut(|bytes, place| {
+            let text = csv::StringRecord::from_byte_record(std::mem::take(bytes)).map_err(|e| {
+                let column = e.utf8_error().field();
+                InputError::Cell {
+                    file: file.clone(),
+                    row: place.row,
+                    line: place.line,
+                    column: header.get(column).unwrap_or("?").to_string(),
+                    problem: "not valid UTF-8".into(),
                 }
-                Err(e) => return Err(csv_error(&self.file, &e)),
-            }
+            })?;
+            let result = each(&text, place);
+            // The record's buffers are reused for the next row.
+            *bytes = text.into_byte_record();
+            result
+        })
+    }
+
+    /// Like [`Self::for_each`], over raw bytes (no per-row UTF-8 check or allocation); the
+    /// caller checks the cells it uses with [`Fields`].
+    pub fn for_each_bytes(
+        &mut self,
+        mut each: impl FnMut(&csv::ByteRecord, Place) -> Result<(), InputError>,
+    ) -> Result<u64, InputError> {
+        self.for_each_bytes_mut(|record, place| each(record, place))
+    }
+
+    /// The one row loop: numbers the rows, and refuses a table without any.
+    fn for_each_bytes_mut(
+        &mut self,
+        mut each: impl FnMut(&mut csv::ByteRecord, Place) -> Result<(), InputError>,
+    ) -> Result<u64, InputError> {
+        let mut record = csv::ByteRecord::new();
+        let mut row = 0;
+        while self.next_record(&mut record)? {
+            row += 1;
+            // A CSV record knows its line (quoted cells can span lines).
+            let line = record.position().map_or(row + 1, |p| p.line());
+            each(&mut record, Place { row, line })?;
         }
         if row == 0 {
             return Err(InputError::Empty { file: self.file.clone() });
@@ -84,29 +122,11 @@ impl CsvInput {
         Ok(row)
     }
 
-    /// Like [`Self::for_each`], over raw bytes (no per-row UTF-8 check or allocation); the
-    /// caller checks the cells it uses with [`field`].
-    pub fn for_each_bytes(
-        &mut self,
-        mut each: impl FnMut(&csv::ByteRecord, Place) -> Result<(), InputError>,
-    ) -> Result<u64, InputError> {
-        let mut record = csv::ByteRecord::new();
-        let mut row = 0;
-        loop {
-            match self.reader.read_byte_record(&mut record) {
-                Ok(false) => break,
-                Ok(true) => {
-                    row += 1;
-                    let line = record.position().map_or(row + 1, |p| p.line());
-                    each(&record, Place { row, line })?;
-                }
-                Err(e) => return Err(csv_error(&self.file, &e)),
-            }
+    /// Reads the next row into `record`; false at the end.
+    fn next_record(&mut self, record: &mut csv::ByteRecord) -> Result<bool, InputError> {
+        match &mut self.rows {
+            Rows::Csv(reader) => reader.read_byte_record(record).map_err(|e| csv_error(&self.file, &e)),
         }
-        if row == 0 {
-            return Err(InputError::Empty { file: self.file.clone() });
-        }
-        Ok(row)
     }
 
     /// An error about one cell.
@@ -209,4 +229,28 @@ pub(crate) type FxHashMap<K, V> = std::collections::HashMap<K, V, std::hash::Bui
 fn csv_error(path: &Path, e: &csv::Error) -> InputError {
     let line = e.position().map_or(0, |p| p.line());
     InputError::Csv { file: path.into(), line, detail: e.to_string() }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn table(bytes: &[u8]) -> TableInput {
+        TableInput::from_reader(Path::new("t.csv"), Box::new(std::io::Cursor::new(bytes.to_vec()))).expect("header")
+    }
+
+    #[test]
+    fn text_rows_are_numbered_and_a_bad_cell_is_named() {
+        let mut seen = Vec::new();
+        let rows = table(b"a,b\n1,\"x\ny\"\n2,z\n").for_each(|r, place| {
+            seen.push((r[1].to_string(), place.row, place.line));
+            Ok(())
+        });
+        assert_eq!(rows.expect("rows"), 2);
+        assert_eq!(seen, [("x\ny".to_string(), 1, 2), ("z".to_string(), 2, 4)]);
+        let e = table(b"a,b\n1,2\n3,\xff\n").for_each(|_, _| Ok(())).expect_err("not UTF-8").to_string();
+        assert_eq!(e, "t.csv: row 2 (line 3), column \"b\": not valid UTF-8");
+        let e = table(b"a,b\n").for_each(|_, _| Ok(())).expect_err("no rows").to_string();
+        assert_eq!(e, "t.csv: no data rows");
+    }
 }
