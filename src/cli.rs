@@ -120,7 +120,7 @@ enum Command {
     Stimuli(StimuliCommand),
 
     /// Compute the validation report from responses and the stimulus manifest.
-    #[command(after_help = "Examples:\n  facslab analyze --responses responses.csv --manifest manifest.csv -o report\n  facslab analyze --responses r.csv --manifest m.csv -o strict --match-side --match-intensity\n\nWrites report.json (every number), report.html (tables and plots), one CSV per table and\nthe plots as PNG files. Inputs are validated in full first; on any error nothing is written.")]
+    #[command(after_help = "Examples:\n  facslab analyze --responses responses.csv --manifest manifest.csv -o report\n  facslab analyze --responses r.csv --manifest m.csv -o strict --match-side --match-intensity\n  facslab analyze --responses r.parquet --manifest m.parquet -o report   # built with --features polars\n\nWrites report.json (every number), report.html (tables and plots), one CSV per table and\nthe plots as PNG files. Inputs are validated in full first; on any error nothing is written.\nFiles ending in .parquet are read as Parquet (same results and error messages as CSV).")]
     Analyze(crate::analysis::cli::AnalyzeArgs),
 
     /// Write synthetic responses and a manifest shaped like one of the seed's experiments.

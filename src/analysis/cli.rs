@@ -13,10 +13,12 @@ use crate::facs::{Catalog, EmotionTable};
 
 #[derive(Args)]
 pub struct AnalyzeArgs {
-    /// Responses in the long format (participant_id,group,stimulus_id,trial,measure,value,rt_ms).
+    /// Responses in the long format (participant_id,group,stimulus_id,trial,measure,value,rt_ms):
+    /// CSV, or Parquet (`.parquet`) when built with the `polars` feature.
     #[arg(long)]
     pub responses: PathBuf,
-    /// The stimulus manifest (manifest.csv of a built stimulus set).
+    /// The stimulus manifest (manifest.csv of a built stimulus set; or `.parquet` with the
+    /// `polars` feature).
     #[arg(long)]
     pub manifest: PathBuf,
     /// Output directory (created; an earlier report in it is replaced).

@@ -1,11 +1,16 @@
 //! Errors and table plumbing shared by the response and manifest readers.
 //!
-//! In: a CSV file. Out: its header and its data rows as text cells, through one row loop.
+//! In: a CSV file, or a Parquet file (`.parquet`, with the `polars` feature). Out: its header and
+//! its data rows as text cells, the same for both formats, so validation, results and error
+//! messages do not depend on the format.
 //!
 //! Every error names the file, and where a cell is at fault, the data row (1-based, the header
-//! not counted), the file line, and the column name, so a user can go straight to the cell.
+//! not counted), the file line (for Parquet, the line the row would have in CSV: row + 1), and the
+//! column name, so a user can go straight to the cell.
 
 use std::path::{Path, PathBuf};
+
+use super::parquet::ParquetRows;
 
 /// Why an input file could not be used. Nothing is written when any of these occurs.
 #[derive(Debug, thiserror::Error)]
@@ -20,18 +25,28 @@ pub enum InputError {
     Cell { file: PathBuf, row: u64, line: u64, column: String, problem: String },
     #[error("{file}: no data rows")]
     Empty { file: PathBuf },
+    #[error("{file}: not usable as Parquet: {detail}")]
+    Parquet { file: PathBuf, detail: String },
+    #[error("{file}: Parquet files need facslab built with the `polars` feature (cargo build --release --features polars)")]
+    NeedsPolars { file: PathBuf },
 }
 
-/// A table opened for reading by column name.
+/// Whether `path` names a Parquet file (extension `.parquet`, any case); anything else is CSV.
+pub fn is_parquet(path: &Path) -> bool {
+    path.extension().is_some_and(|e| e.eq_ignore_ascii_case("parquet"))
+}
+
+/// A table opened for reading by column name: CSV, or Parquet (by extension).
 pub(crate) struct TableInput {
     pub file: PathBuf,
     rows: Rows,
     header: csv::StringRecord,
 }
 
-/// Where a table's rows come from.
+/// Where a table's rows come from; both give rows of text cells.
 enum Rows {
     Csv(csv::Reader<Box<dyn std::io::Read>>),
+    Parquet(ParquetRows),
 }
 
 /// Where a record sits, for error messages.
@@ -42,8 +57,17 @@ pub(crate) struct Place {
 }
 
 impl TableInput {
-    /// Opens a CSV file.
+    /// Opens a Parquet file if `path` ends in `.parquet`, else a CSV file.
     pub fn open(path: &Path) -> Result<Self, InputError> {
+        if is_parquet(path) {
+            let (rows, header) = ParquetRows::open(path)?;
+            return Ok(Self { file: path.into(), rows: Rows::Parquet(rows), header: csv::StringRecord::from(header) });
+        }
+        Self::open_csv(path)
+    }
+
+    /// Opens `path` as CSV, whatever its extension.
+    pub fn open_csv(path: &Path) -> Result<Self, InputError> {
         let file = std::fs::File::open(path).map_err(|source| InputError::Io { file: path.into(), source })?;
         Self::from_reader(path, Box::new(std::io::BufReader::with_capacity(1 << 20, file)))
     }
@@ -103,7 +127,7 @@ impl TableInput {
         self.for_each_bytes_mut(|record, place| each(record, place))
     }
 
-    /// The one row loop: numbers the rows, and refuses a table without any.
+    /// The one row loop of both formats: numbers the rows, and refuses a table without any.
     fn for_each_bytes_mut(
         &mut self,
         mut each: impl FnMut(&mut csv::ByteRecord, Place) -> Result<(), InputError>,
@@ -112,7 +136,8 @@ impl TableInput {
         let mut row = 0;
         while self.next_record(&mut record)? {
             row += 1;
-            // A CSV record knows its line (quoted cells can span lines).
+            // A CSV record knows its line (quoted cells can span lines); a Parquet row is
+            // placed as if under a header line.
             let line = record.position().map_or(row + 1, |p| p.line());
             each(&mut record, Place { row, line })?;
         }
@@ -126,6 +151,7 @@ impl TableInput {
     fn next_record(&mut self, record: &mut csv::ByteRecord) -> Result<bool, InputError> {
         match &mut self.rows {
             Rows::Csv(reader) => reader.read_byte_record(record).map_err(|e| csv_error(&self.file, &e)),
+            Rows::Parquet(rows) => rows.next_record(record),
         }
     }
 
@@ -252,5 +278,11 @@ mod tests {
         assert_eq!(e, "t.csv: row 2 (line 3), column \"b\": not valid UTF-8");
         let e = table(b"a,b\n").for_each(|_, _| Ok(())).expect_err("no rows").to_string();
         assert_eq!(e, "t.csv: no data rows");
+    }
+
+    #[test]
+    fn parquet_is_told_by_the_extension() {
+        assert!(is_parquet(Path::new("dir/r.parquet")) && is_parquet(Path::new("R.PARQUET")));
+        assert!(!is_parquet(Path::new("r.csv")) && !is_parquet(Path::new("parquet")) && !is_parquet(Path::new("r.parquet.csv")));
     }
 }
