@@ -126,6 +126,10 @@ enum Command {
     /// Write synthetic responses and a manifest shaped like one of the seed's experiments.
     #[command(after_help = "Examples:\n  facslab simulate --design exp1 --seed 1 -o sim1           # 3 coders, 49 single AUs\n  facslab simulate --design exp2 --accuracy 0.8 -o sim2       # 54 AU combinations\n  facslab simulate --design exp3 --participants 40 --groups local,amt --missing 0.02 -o sim3\n\nWrites DIR/responses.csv and DIR/manifest.csv; the same options give the same bytes.")]
     Simulate(crate::analysis::cli::SimulateArgs),
+
+    /// Convert a response file or a manifest between CSV and Parquet (needs the `polars` feature).
+    #[command(after_help = "Examples:\n  facslab convert sim/responses.csv -o responses.parquet\n  facslab convert sim/manifest.csv -o manifest.parquet\n  facslab convert responses.parquet -o responses.csv\n  facslab analyze --responses responses.parquet --manifest manifest.parquet -o report\n\nThe direction follows the extensions (.parquet or CSV). A column is stored as Int64 or\nFloat64 when every cell converts back to the same text, else as String; empty cells are\nnulls. Converting back gives every cell exactly. Needs facslab built with\n`cargo build --release --features polars`; without it the command says so and stops.")]
+    Convert(crate::analysis::cli::ConvertArgs),
 }
 
 #[derive(Subcommand)]
@@ -306,6 +310,7 @@ fn dispatch(command: Command) -> anyhow::Result<()> {
         }
         Command::Analyze(args) => crate::analysis::cli::analyze(args),
         Command::Simulate(args) => crate::analysis::cli::simulate(args),
+        Command::Convert(args) => crate::analysis::cli::convert(args),
     }
 }
 

@@ -17,6 +17,8 @@ use super::parquet::ParquetRows;
 pub enum InputError {
     #[error("{file}: cannot read: {source}")]
     Io { file: PathBuf, source: std::io::Error },
+    #[error("{file}: cannot write: {source}")]
+    Write { file: PathBuf, source: std::io::Error },
     #[error("{file}: not valid CSV at line {line}: {detail}")]
     Csv { file: PathBuf, line: u64, detail: String },
     #[error("{file}: missing column \"{column}\" (the header has: {header})")]

@@ -1,5 +1,5 @@
 //! Parquet without the `polars` feature: the same interface as `parquet.rs`, where every
-//! function says how to get a facslab that reads Parquet.
+//! function says how to get a facslab that reads and writes Parquet.
 
 use std::path::Path;
 
@@ -16,6 +16,14 @@ impl ParquetRows {
     pub fn next_record(&mut self, _record: &mut csv::ByteRecord) -> Result<bool, InputError> {
         match *self {}
     }
+}
+
+pub fn csv_to_parquet(_input: &Path, output: &Path) -> Result<u64, InputError> {
+    Err(InputError::NeedsPolars { file: output.into() })
+}
+
+pub fn parquet_to_csv(input: &Path, _output: &Path) -> Result<u64, InputError> {
+    Err(InputError::NeedsPolars { file: input.into() })
 }
 
 #[cfg(test)]
