@@ -123,6 +123,30 @@ enum Command {
     #[command(after_help = "Examples:\n  facslab analyze --responses responses.csv --manifest manifest.csv -o report\n  facslab analyze --responses r.csv --manifest m.csv -o strict --match-side --match-intensity\n  facslab analyze --responses r.parquet --manifest m.parquet -o report   # built with --features polars\n\nWrites report.json (every number), report.html (tables and plots), one CSV per table and\nthe plots as PNG files. Inputs are validated in full first; on any error nothing is written.\nFiles ending in .parquet are read as Parquet (same results and error messages as CSV).")]
     Analyze(crate::analysis::cli::AnalyzeArgs),
 
+    /// Build the demo stimulus set and two demo studies, then serve them and print the URLs.
+    #[command(after_help = "Examples:\n  facslab demo                       # http://127.0.0.1:8080/s/demo-emotions, /s/demo-coding, /admin\n  facslab demo --port 9000 -o /tmp/demo\n\nEverything lives in the output directory (default facslab-demo/): the stimulus set, the\nSQLite database and the admin password (admin-password.txt). Running it again reuses them.")]
+    Demo(crate::web::cli::DemoArgs),
+
+    /// Serve the study web app (participants and admin) from a study database.
+    #[command(after_help = "Examples:\n  facslab serve --db lab.db\n  facslab serve --db lab.db --host 0.0.0.0 --port 8080\n\nCreate studies with `facslab study create` and the first admin with `facslab admin create`.")]
+    Serve(crate::web::cli::ServeArgs),
+
+    /// Create, check, list, open and close studies.
+    #[command(subcommand)]
+    Study(crate::web::cli::StudyCommand),
+
+    /// Admin accounts, export API tokens and backups.
+    #[command(subcommand)]
+    Admin(crate::web::cli::AdminCommand),
+
+    /// Export a study's responses (long CSV for `analyze`, wide CSV, JSON) or its codebook.
+    #[command(after_help = "Examples:\n  facslab export --study exp3 --db lab.db -o responses.csv\n  facslab export --study exp3 --format wide.csv --all --db lab.db -o wide.csv")]
+    Export(crate::web::cli::ExportArgs),
+
+    /// The validation report of a study, straight from the study database.
+    #[command(after_help = "Examples:\n  facslab report --study exp3 --db lab.db -o exp3-report\n  facslab report --study exp1 --db lab.db -o strict --match-side --match-intensity\n\nExports the study's long responses (kept in OUTPUT.inputs/responses.csv) and analyses them\nagainst the manifest of the study's stimulus set, as `facslab analyze` does.")]
+    Report(crate::web::cli::ReportArgs),
+
     /// Write synthetic responses and a manifest shaped like one of the seed's experiments.
     #[command(after_help = "Examples:\n  facslab simulate --design exp1 --seed 1 -o sim1           # 3 coders, 49 single AUs\n  facslab simulate --design exp2 --accuracy 0.8 -o sim2       # 54 AU combinations\n  facslab simulate --design exp3 --participants 40 --groups local,amt --missing 0.02 -o sim3\n\nWrites DIR/responses.csv and DIR/manifest.csv; the same options give the same bytes.")]
     Simulate(crate::analysis::cli::SimulateArgs),
@@ -199,6 +223,12 @@ pub fn run() -> ExitCode {
 
 fn dispatch(command: Command) -> anyhow::Result<()> {
     match command {
+        Command::Demo(args) => crate::web::cli::demo_command(args),
+        Command::Serve(args) => crate::web::cli::serve_command(args),
+        Command::Study(command) => crate::web::cli::study_command(command),
+        Command::Admin(command) => crate::web::cli::admin_command(command),
+        Command::Export(args) => crate::web::cli::export_command(args),
+        Command::Report(args) => crate::web::cli::report_command(args),
         Command::Catalog => {
             for unit in Catalog::built_in().iter() {
                 let side = if unit.unilateral { "L/R" } else { "" };

@@ -7,7 +7,11 @@
 
 pub mod analysis;
 pub mod cli;
+pub mod db;
 pub mod engine;
 pub mod facs;
 pub mod report;
+pub mod seeded;
 pub mod stimuli;
+pub mod study;
+pub mod web;

@@ -9,7 +9,7 @@
 //! | `emotion` | an EmFACS label, `none` or `neutral` | required |
 //! | `believability` | integer Likert 1–5 | required |
 //! | `description_match` | integer 0–5 | required |
-//! | `q1`, `q2` | integer Likert 1–7 | required |
+//! | `q1`, `q2` | integer 0–5 (seed 004: 0 = very little … 5 = very much) | required |
 //! | `age` | years (number in 0–120) | empty |
 //! | `gender`, `ethnicity`, `education` | free text (compared case-insensitively) | empty |
 //!
@@ -51,7 +51,7 @@ impl Scale {
         match self {
             Scale::Believability => (1, 5),
             Scale::DescriptionMatch => (0, 5),
-            Scale::Q1 | Scale::Q2 => (1, 7),
+            Scale::Q1 | Scale::Q2 => (0, 5),
         }
     }
 }

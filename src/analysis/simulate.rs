@@ -16,6 +16,7 @@
 use std::fmt::Write;
 
 use crate::facs::{Catalog, EmotionTable, Laterality};
+use crate::seeded::SplitMix64;
 
 /// Which experiment to imitate.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -95,44 +96,6 @@ const SIMILAR_EMOTIONS: [(&str, &str); 10] = [
 
 const IDENTITIES: [&str; 8] = ["wm1", "wm2", "bm1", "bm2", "wf1", "wf2", "bf1", "bf2"];
 
-/// SplitMix64 (Steele, Lea & Flood 2014): small, fast, and the same on every platform.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in [0, 1).
-    fn unit(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
-
-    fn below(&mut self, n: usize) -> usize {
-        (self.unit() * n as f64) as usize % n.max(1)
-    }
-
-    fn normal(&mut self) -> f64 {
-        let (u1, u2) = (self.unit().max(1e-300), self.unit());
-        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
-    }
-
-    fn id(&mut self) -> String {
-        format!("{:016x}", self.next())
-    }
-
-    fn shuffle<T>(&mut self, v: &mut [T]) {
-        for i in (1..v.len()).rev() {
-            let j = self.below(i + 1);
-            v.swap(i, j);
-        }
-    }
-}
-
 const MANIFEST_HEADER: &str =
     "stimulus_id,media,file,identity,expression,emotion,intensity,onset_s,apex_s,offset_s,frames,fps,width,height,sha256,set_seed,engine_version\n";
 const RESPONSES_HEADER: &str = "participant_id,group,stimulus_id,trial,measure,value,rt_ms\n";
@@ -155,7 +118,7 @@ fn manifest_row(out: &mut String, s: &SimStimulus, video: bool, identity: &str, 
     );
 }
 
-fn demographics(out: &mut String, rng: &mut Rng, pid: &str, group: &str) {
+fn demographics(out: &mut String, rng: &mut SplitMix64, pid: &str, group: &str) {
     const GENDERS: [&str; 2] = ["female", "male"];
     const ETHNICITIES: [&str; 4] = ["white", "black", "asian", "hispanic"];
     const EDUCATION: [&str; 3] = ["high school", "bachelor", "graduate"];
@@ -174,7 +137,7 @@ fn demographics(out: &mut String, rng: &mut Rng, pid: &str, group: &str) {
 
 /// Runs a simulation; returns (manifest CSV, responses CSV).
 pub fn simulate(o: &SimOptions) -> (String, String) {
-    let mut rng = Rng(o.seed);
+    let mut rng = SplitMix64(o.seed);
     let catalog = Catalog::built_in();
     let mut manifest = String::from(MANIFEST_HEADER);
     let mut responses = String::from(RESPONSES_HEADER);

@@ -147,7 +147,7 @@ fn unknown_au_names_row_and_column() {
 
 #[test]
 fn likert_out_of_range_names_row_and_column() {
-    bad_responses(&format!("{HEADER}p1,g,ID,1,believability,3,\np1,g,ID,1,q1,9,\n"), &["row 2 (line 3), column \"value\"", "outside the scale 1-7"]);
+    bad_responses(&format!("{HEADER}p1,g,ID,1,believability,3,\np1,g,ID,1,q1,9,\n"), &["row 2 (line 3), column \"value\"", "outside the scale 0-5"]);
 }
 
 #[test]

@@ -1,7 +1,11 @@
 //! Integration tests: drive the real `facslab` binary on files in a temporary directory.
 
 mod analyze;
+mod balance;
+mod browser;
 mod cli;
 mod golden;
 mod render;
+mod server;
 mod stimuli;
+mod study;

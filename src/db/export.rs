@@ -1,0 +1,286 @@
+//! Exports of a study's responses: the long CSV (design.md §3, the `analyze` input), a wide CSV
+//! (one row per participant), JSON (everything, practice and attention trials included), and
+//! the codebook. Exports are streamed: rows are read in participant order and sent on as text
+//! chunks, so memory stays flat however large the study.
+//!
+//! Scope: by default only *completed* participations that are not excluded; `Scope::All` adds
+//! every other one except withdrawals (a withdrawn participant's answers never leave).
+
+use std::collections::HashMap;
+
+use futures_util::StreamExt;
+use sqlx::Row;
+use tokio::sync::mpsc;
+
+use super::participants::Demographics;
+use super::{Db, DbError};
+use crate::stimuli::manifest::csv_field;
+use crate::study::StudyDesign;
+
+/// Which participations an export includes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Scope {
+    /// Completed and not excluded.
+    #[default]
+    Completed,
+    /// Every participation except withdrawn ones.
+    All,
+}
+
+/// The export formats.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Format {
+    Long,
+    Wide,
+    Json,
+}
+
+impl Format {
+    pub fn parse(text: &str) -> Option<Format> {
+        match text {
+            "long" | "responses.csv" => Some(Format::Long),
+            "wide" | "wide.csv" => Some(Format::Wide),
+            "json" | "responses.json" => Some(Format::Json),
+            _ => None,
+        }
+    }
+
+    pub fn content_type(self) -> &'static str {
+        match self {
+            Format::Long | Format::Wide => "text/csv; charset=utf-8",
+            Format::Json => "application/json",
+        }
+    }
+
+    pub fn file_name(self, slug: &str) -> String {
+        match self {
+            Format::Long => format!("{slug}-responses.csv"),
+            Format::Wide => format!("{slug}-wide.csv"),
+            Format::Json => format!("{slug}-responses.json"),
+        }
+    }
+}
+
+pub const LONG_HEADER: &str = "participant_id,group,stimulus_id,trial,measure,value,rt_ms\n";
+
+/// One participant's answers, gathered while streaming.
+#[derive(Debug, Default, serde::Serialize)]
+struct ParticipantRecord {
+    participant_id: String,
+    group: String,
+    state: String,
+    excluded: bool,
+    demographics: Option<Demographics>,
+    trials: Vec<TrialRecord>,
+}
+
+#[derive(Debug, serde::Serialize)]
+struct TrialRecord {
+    trial: i64,
+    kind: String,
+    stimulus_id: String,
+    answers: Vec<(String, String)>,
+    rt_ms: Option<f64>,
+    video_ended: Option<bool>,
+    load_failed: bool,
+    received_at: i64,
+}
+
+/// The measures a study's answers have, in column order.
+pub fn measures(design: &StudyDesign) -> Vec<String> {
+    let main = match design.task {
+        crate::study::TaskKind::AuCoding => Some("aus"),
+        crate::study::TaskKind::Emotion => Some("emotion"),
+        crate::study::TaskKind::Rating => None,
+    };
+    main.into_iter().map(String::from).chain(design.items.iter().map(|i| i.measure.clone())).collect()
+}
+
+fn rt_text(rt: Option<f64>) -> String {
+    rt.map(|v| format!("{}", (v * 10.0).round() / 10.0)).unwrap_or_default()
+}
+
+impl ParticipantRecord {
+    fn long_rows(&self, out: &mut String) {
+        let (pid, group) = (csv_field(&self.participant_id), csv_field(&self.group));
+        if let Some(d) = &self.demographics {
+            let age = d.age.map(|a| a.to_string()).unwrap_or_default();
+            for (measure, value) in [("age", age.as_str()), ("gender", &d.gender), ("ethnicity", &d.ethnicity), ("education", &d.education)] {
+                if !value.is_empty() {
+                    out.push_str(&format!("{pid},{group},,,{measure},{},\n", csv_field(value)));
+                }
+            }
+        }
+        for t in self.trials.iter().filter(|t| t.kind == "trial") {
+            for (measure, value) in &t.answers {
+                out.push_str(&format!("{pid},{group},{},{},{measure},{},{}\n", csv_field(&t.stimulus_id), t.trial, csv_field(value), rt_text(t.rt_ms)));
+            }
+        }
+    }
+
+    fn wide_row(&self, columns: &[(String, String)], out: &mut String) {
+        let d = self.demographics.clone().unwrap_or_default();
+        let mut cells = vec![
+            csv_field(&self.participant_id),
+            csv_field(&self.group),
+            d.age.map(|a| a.to_string()).unwrap_or_default(),
+            csv_field(&d.gender),
+            csv_field(&d.ethnicity),
+            csv_field(&d.education),
+        ];
+        let answers: HashMap<(&str, &str), &str> = self
+            .trials
+            .iter()
+            .filter(|t| t.kind == "trial")
+            .flat_map(|t| t.answers.iter().map(move |(m, v)| ((t.stimulus_id.as_str(), m.as_str()), v.as_str())))
+            .collect();
+        for (stimulus, measure) in columns {
+            cells.push(answers.get(&(stimulus.as_str(), measure.as_str())).map(|v| csv_field(v)).unwrap_or_default());
+        }
+        out.push_str(&cells.join(","));
+        out.push('\n');
+    }
+}
+
+impl Db {
+    /// Streams an export as text chunks (the receiver ends after the last chunk or an error).
+    pub fn export(&self, study_id: i64, design: &StudyDesign, stimuli: Vec<String>, format: Format, scope: Scope) -> mpsc::Receiver<Result<String, DbError>> {
+        let (tx, rx) = mpsc::channel(16);
+        let db = self.clone();
+        let measures = measures(design);
+        tokio::spawn(async move {
+            if let Err(e) = db.export_into(study_id, &measures, &stimuli, format, scope, &tx).await {
+                let _ = tx.send(Err(e)).await;
+            }
+        });
+        rx
+    }
+
+    async fn export_into(&self, study_id: i64, measures: &[String], stimuli: &[String], format: Format, scope: Scope, tx: &mpsc::Sender<Result<String, DbError>>) -> Result<(), DbError> {
+        let columns: Vec<(String, String)> = stimuli.iter().flat_map(|s| measures.iter().map(move |m| (s.clone(), m.clone()))).collect();
+        let head = match format {
+            Format::Long => LONG_HEADER.to_string(),
+            Format::Wide => {
+                let mut h = "participant_id,group,age,gender,ethnicity,education".to_string();
+                for (s, m) in &columns {
+                    h.push_str(&format!(",{}", csv_field(&format!("{s}:{m}"))));
+                }
+                h + "\n"
+            }
+            Format::Json => "{\"participants\": [\n".to_string(),
+        };
+        if tx.send(Ok(head)).await.is_err() {
+            return Ok(());
+        }
+        let demographics = self.demographics_of(study_id).await?;
+        let scope_sql = match scope {
+            Scope::Completed => "p.state = 'completed' AND p.excluded = 0",
+            Scope::All => "p.state <> 'withdrawn'",
+        };
+        let sql = format!(
+            "SELECT p.id, p.public_id, p.grp, p.state, p.excluded, t.position, t.kind, t.stimulus_id, r.answers, r.rt_ms, r.video_ended, r.load_failed, r.received_at
+             FROM participants p JOIN trials t ON t.participant_id = p.id JOIN responses r ON r.participant_id = t.participant_id AND r.position = t.position
+             WHERE p.study_id = ? AND {scope_sql} ORDER BY p.id, t.position"
+        );
+        let mut rows = sqlx::query(sqlx::AssertSqlSafe(sql)).bind(study_id).fetch(&self.reader);
+        let mut current: Option<(i64, ParticipantRecord)> = None;
+        let mut first = true;
+        let mut chunk = String::new();
+        while let Some(row) = rows.next().await {
+            let row = row?;
+            let id: i64 = row.get(0);
+            if current.as_ref().is_none_or(|(cid, _)| *cid != id) {
+                if let Some((_, record)) = current.take() {
+                    emit(&record, format, &columns, &mut first, &mut chunk);
+                }
+                let record = ParticipantRecord {
+                    participant_id: row.get(1),
+                    group: row.get(2),
+                    state: row.get(3),
+                    excluded: row.get::<i64, _>(4) != 0,
+                    demographics: demographics.get(&id).cloned(),
+                    trials: Vec::new(),
+                };
+                current = Some((id, record));
+            }
+            let answers: String = row.get(8);
+            let answers: Vec<(String, String)> = serde_json::from_str(&answers).map_err(|e| DbError::Conflict(format!("stored answer unreadable: {e}")))?;
+            if let Some((_, record)) = current.as_mut() {
+                record.trials.push(TrialRecord {
+                    trial: row.get::<i64, _>(5) + 1,
+                    kind: row.get(6),
+                    stimulus_id: row.get(7),
+                    answers,
+                    rt_ms: row.get(9),
+                    video_ended: row.get::<Option<i64>, _>(10).map(|v| v != 0),
+                    load_failed: row.get::<i64, _>(11) != 0,
+                    received_at: row.get(12),
+                });
+            }
+            if chunk.len() > 64 * 1024 && tx.send(Ok(std::mem::take(&mut chunk))).await.is_err() {
+                return Ok(());
+            }
+        }
+        if let Some((_, record)) = current.take() {
+            emit(&record, format, &columns, &mut first, &mut chunk);
+        }
+        if format == Format::Json {
+            chunk.push_str("\n]}\n");
+        }
+        let _ = tx.send(Ok(chunk)).await;
+        Ok(())
+    }
+
+    async fn demographics_of(&self, study_id: i64) -> Result<HashMap<i64, Demographics>, DbError> {
+        let rows = sqlx::query("SELECT d.participant_id, d.age, d.gender, d.ethnicity, d.education FROM demographics d JOIN participants p ON p.id = d.participant_id WHERE p.study_id = ?")
+            .bind(study_id)
+            .fetch_all(&self.reader)
+            .await?;
+        Ok(rows.into_iter().map(|r| (r.get(0), Demographics { age: r.get(1), gender: r.get(2), ethnicity: r.get(3), education: r.get(4) })).collect())
+    }
+}
+
+fn emit(record: &ParticipantRecord, format: Format, columns: &[(String, String)], first: &mut bool, out: &mut String) {
+    match format {
+        Format::Long => record.long_rows(out),
+        Format::Wide => record.wide_row(columns, out),
+        Format::Json => {
+            if !std::mem::take(first) {
+                out.push_str(",\n");
+            }
+            out.push_str(&serde_json::to_string(record).unwrap_or_default());
+        }
+    }
+}
+
+/// The codebook of a study's exports: every column and, for categorical measures, its levels.
+pub fn codebook(design: &StudyDesign) -> String {
+    let mut out = String::from("file,column,description,levels\n");
+    let mut row = |file: &str, column: &str, description: &str, levels: &str| {
+        out.push_str(&format!("{file},{},{},{}\n", csv_field(column), csv_field(description), csv_field(levels)));
+    };
+    let long = "responses.csv";
+    row(long, "participant_id", "Opaque participant id (not the platform's worker id)", "");
+    row(long, "group", "The study's group label", &design.group);
+    row(long, "stimulus_id", "Stimulus id of the set's manifest (empty on demographic rows)", "");
+    row(long, "trial", "Presentation position of the trial, 1-based, counting practice and attention trials (empty on demographic rows)", "");
+    row(long, "measure", "What the value is", &measures(design).into_iter().chain(["age", "gender", "ethnicity", "education"].map(String::from)).collect::<Vec<_>>().join("|"));
+    row(long, "value", "The answer", "");
+    row(long, "rt_ms", "Milliseconds from the stimulus's first painted frame to the answer, 0.1 ms resolution", "");
+    match design.task {
+        crate::study::TaskKind::Emotion => row("", "emotion", "Emotion chosen", &crate::study::design::emotion_choices().join("|")),
+        crate::study::TaskKind::AuCoding => row("", "aus", "AUs the coder marked, FACS notation (L/R = side, A-E = intensity); empty = no AU", ""),
+        crate::study::TaskKind::Rating => {}
+    }
+    for item in &design.items {
+        let levels = format!("{}={} .. {}={}", item.min, item.min_label, item.max, item.max_label);
+        row("", &item.measure, &item.prompt, &levels);
+    }
+    row("", "age", "Age in years as stated", "");
+    row("", "gender", "As stated", "");
+    row("", "ethnicity", "As stated", "");
+    row("", "education", "As stated", "");
+    row("wide.csv", "<stimulus_id>:<measure>", "One column per stimulus and measure; one row per participant", "");
+    row("responses.json", "participants[].trials[]", "Every saved trial with kind (practice|trial|attention), answers, rt_ms, video_ended, load_failed, received_at (Unix ms)", "");
+    out
+}

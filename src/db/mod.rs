@@ -1,0 +1,94 @@
+//! The study database: one SQLite file, schema in `migrations/` (applied on open).
+//!
+//! In: study designs, participations, saves and admin actions from the web layer. Out: typed
+//! rows and streams for pages and exports. Invariants (design.md §6.9): WAL journal, foreign keys
+//! on, a busy timeout; every read-then-write runs in one `BEGIN IMMEDIATE` transaction on the
+//! single writer connection, so balance counts and idempotency checks never race; readers use
+//! their own pool and never block the writer. Times are Unix milliseconds.
+
+pub mod admin;
+pub mod export;
+pub mod participants;
+pub mod studies;
+
+use std::path::Path;
+use std::str::FromStr;
+use std::time::Duration;
+
+use sqlx::sqlite::{SqliteConnectOptions, SqliteJournalMode, SqlitePool, SqlitePoolOptions, SqliteSynchronous};
+
+/// What went wrong in the database layer.
+#[derive(Debug, thiserror::Error)]
+pub enum DbError {
+    #[error("database: {0}")]
+    Sql(#[from] sqlx::Error),
+    #[error("database migrations: {0}")]
+    Migrate(#[from] sqlx::migrate::MigrateError),
+    #[error("{0}")]
+    Conflict(String),
+    #[error("{0}")]
+    NotFound(String),
+}
+
+/// The two pools over one database file.
+#[derive(Clone, Debug)]
+pub struct Db {
+    /// One connection: every write, serialised in the pool's fair queue.
+    writer: SqlitePool,
+    /// Several connections for pages, progress and exports.
+    reader: SqlitePool,
+}
+
+static MIGRATOR: sqlx::migrate::Migrator = sqlx::migrate!("./migrations");
+
+impl Db {
+    /// Opens (creating if needed) the database file and applies the migrations.
+    pub async fn open(path: &Path) -> Result<Db, DbError> {
+        let options = SqliteConnectOptions::from_str("sqlite:")?
+            .filename(path)
+            .create_if_missing(true)
+            .journal_mode(SqliteJournalMode::Wal)
+            .synchronous(SqliteSynchronous::Normal)
+            .foreign_keys(true)
+            .busy_timeout(Duration::from_secs(10));
+        let writer = SqlitePoolOptions::new().max_connections(1).connect_with(options.clone()).await?;
+        MIGRATOR.run(&writer).await?;
+        let reader = SqlitePoolOptions::new().max_connections(4).connect_with(options.read_only(true)).await?;
+        Ok(Db { writer, reader })
+    }
+
+    /// Writes a consistent copy of the database to `path` (`VACUUM INTO`, safe while serving).
+    pub async fn backup(&self, path: &Path) -> Result<(), DbError> {
+        sqlx::query("VACUUM INTO ?").bind(path.to_string_lossy().into_owned()).execute(&self.reader).await?;
+        Ok(())
+    }
+
+    pub async fn close(&self) {
+        self.writer.close().await;
+        self.reader.close().await;
+    }
+
+    /// Starts a read-then-write transaction that holds the write lock from its first statement.
+    async fn immediate(&self) -> Result<sqlx::Transaction<'static, sqlx::Sqlite>, DbError> {
+        Ok(self.writer.begin_with("BEGIN IMMEDIATE").await?)
+    }
+}
+
+/// Now, in Unix milliseconds.
+pub fn now_ms() -> i64 {
+    std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_millis() as i64)
+}
+
+/// A fresh secret: 32 hex digits (128 bits) from the operating system.
+pub fn secret_token() -> String {
+    let mut bytes = [0u8; 16];
+    // The OS generator only fails on platforms without one; there is nothing safe to fall back to.
+    getrandom::fill(&mut bytes).expect("the operating system's random generator is unavailable");
+    hex::encode(bytes)
+}
+
+/// SHA-256 of a token, as stored (tokens themselves are never stored).
+pub fn token_sha256(token: &str) -> String {
+    use sha2::Digest;
+    hex::encode(sha2::Sha256::digest(token.as_bytes()))
+}

@@ -1,0 +1,516 @@
+//! Study designs: the TOML a researcher writes (templates in `studies/`), checked in full.
+//!
+//! ```toml
+//! slug = "exp3"                    # the study's address: /s/exp3
+//! title = "Emotions in faces"
+//! task = "emotion"                 # au_coding | emotion | rating
+//! group = "raters"                 # the `group` column of the exported responses
+//! stimuli = "../out/exp3"          # a built stimulus set, relative to this file
+//! media = "all"                    # all | image | video
+//! trials_per_participant = 0       # 0 = every stimulus; n = a balanced share of n stimuli
+//! ratings_per_stimulus = 0         # with a share: completed ratings wanted per stimulus
+//! practice_trials = 1              # shown first, not exported with the trials
+//! demographics = true              # age, gender, ethnicity, education (HapFACS Table 6)
+//! reservation_minutes = 120        # a participation idle this long is abandoned
+//! consent = "…"; instructions = "…"; debrief = "…"
+//!
+//! [emotion]    believability = true
+//! [au_coding]  intensity = false; side = false
+//! [[rating.item]]  measure = "q1"; prompt = "Does the motion feel right?"; min = 0; max = 5
+//! [attention]  max_failures = 2; checks = [{ instruction = "…", measure = "emotion", value = "surprise" }]
+//! [recruitment] platform = "prolific"; completion_code = "C0DE"
+//! ```
+//!
+//! [`StudyDesign::from_toml`] validates everything (task options, rating ranges against the
+//! analysis's scales, attention-check answers, platform settings) and names the field at fault.
+
+use serde::Deserialize;
+
+use crate::analysis::responses::Scale;
+use crate::facs::EmotionTable;
+
+/// A design that cannot be used; `field` says where.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("study design, {field}: {message}")]
+pub struct DesignError {
+    pub field: String,
+    pub message: String,
+}
+
+fn fail(field: impl Into<String>, message: impl Into<String>) -> DesignError {
+    DesignError { field: field.into(), message: message.into() }
+}
+
+/// What participants do with each stimulus.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TaskKind {
+    /// FACS coders mark the AUs present (measure `aus`).
+    AuCoding,
+    /// Lay raters choose an emotion (measure `emotion`), optionally rate believability.
+    Emotion,
+    /// Likert items only (seed 004's Q1/Q2, description match).
+    Rating,
+}
+
+impl TaskKind {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            TaskKind::AuCoding => "au_coding",
+            TaskKind::Emotion => "emotion",
+            TaskKind::Rating => "rating",
+        }
+    }
+}
+
+/// Which of the set's stimuli a study uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum MediaFilter {
+    #[default]
+    All,
+    Image,
+    Video,
+}
+
+impl MediaFilter {
+    pub fn admits(self, media: &str) -> bool {
+        match self {
+            MediaFilter::All => true,
+            MediaFilter::Image => media == "image",
+            MediaFilter::Video => media == "video",
+        }
+    }
+}
+
+/// Where participants come from, which decides the entry parameters and the completion step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Platform {
+    /// Lab or link: no worker id, one is made up.
+    #[default]
+    Local,
+    /// `?PROLIFIC_PID=…&STUDY_ID=…&SESSION_ID=…`; redirect to Prolific with `cc=` code.
+    Prolific,
+    /// `?workerId=…&assignmentId=…&hitId=…&turkSubmitTo=…`; externalSubmit form.
+    Mturk,
+    /// `?id=…` (survey code); redirect to the credit-granting URL.
+    Sona,
+}
+
+impl Platform {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Platform::Local => "local",
+            Platform::Prolific => "prolific",
+            Platform::Mturk => "mturk",
+            Platform::Sona => "sona",
+        }
+    }
+
+    /// The query parameter that identifies the worker, if the platform has one.
+    pub fn worker_param(self) -> Option<&'static str> {
+        match self {
+            Platform::Local => None,
+            Platform::Prolific => Some("PROLIFIC_PID"),
+            Platform::Mturk => Some("workerId"),
+            Platform::Sona => Some("id"),
+        }
+    }
+
+    /// Every entry parameter kept with the participation (for the completion step and audits).
+    pub fn entry_params(self) -> &'static [&'static str] {
+        match self {
+            Platform::Local => &[],
+            Platform::Prolific => &["PROLIFIC_PID", "STUDY_ID", "SESSION_ID"],
+            Platform::Mturk => &["workerId", "assignmentId", "hitId", "turkSubmitTo"],
+            Platform::Sona => &["id"],
+        }
+    }
+}
+
+/// One Likert item.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LikertItem {
+    /// The long format's measure: believability, description_match, q1 or q2.
+    pub measure: String,
+    pub prompt: String,
+    pub min: u8,
+    pub max: u8,
+    #[serde(default)]
+    pub min_label: String,
+    #[serde(default)]
+    pub max_label: String,
+}
+
+impl LikertItem {
+    pub fn values(&self) -> std::ops::RangeInclusive<u8> {
+        self.min..=self.max
+    }
+}
+
+/// An attention check: an instruction shown over a stimulus, with the one answer that passes.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AttentionCheck {
+    pub instruction: String,
+    pub measure: String,
+    pub value: String,
+}
+
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AttentionPolicy {
+    #[serde(default)]
+    pub checks: Vec<AttentionCheck>,
+    /// Screen out after this many failed checks.
+    #[serde(default = "two")]
+    pub max_failures: u32,
+}
+
+fn two() -> u32 {
+    2
+}
+
+impl Default for AttentionPolicy {
+    fn default() -> Self {
+        AttentionPolicy { checks: Vec::new(), max_failures: 2 }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct EmotionOptions {
+    /// Ask "How believable is this expression?" (1–5) after the emotion.
+    #[serde(default)]
+    pub believability: bool,
+}
+
+#[derive(Debug, Clone, PartialEq, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct CodingOptions {
+    /// Coders may give an intensity A–E per AU.
+    #[serde(default)]
+    pub intensity: bool,
+    /// Coders may mark an AU as left or right only.
+    #[serde(default)]
+    pub side: bool,
+}
+
+#[derive(Debug, Clone, PartialEq, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct RatingOptions {
+    #[serde(default)]
+    pub item: Vec<LikertItem>,
+    /// A description shown with each stimulus, by the manifest's emotion label (seed 004 shows
+    /// participants the expression's description; it is part of the stimulus there).
+    #[serde(default)]
+    pub descriptions: std::collections::BTreeMap<String, String>,
+}
+
+#[derive(Debug, Clone, PartialEq, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct Recruitment {
+    #[serde(default)]
+    pub platform: Platform,
+    /// Shown at the end and sent to Prolific (`cc=`) or MTurk.
+    #[serde(default)]
+    pub completion_code: String,
+    /// Prolific code for participants screened out by the attention policy.
+    #[serde(default)]
+    pub screened_out_code: String,
+    /// SONA credit URL; `{id}` is replaced by the participant's survey code.
+    #[serde(default)]
+    pub sona_credit_url: String,
+    /// Submit MTurk assignments to the sandbox.
+    #[serde(default)]
+    pub mturk_sandbox: bool,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawDesign {
+    slug: String,
+    title: String,
+    task: TaskKind,
+    #[serde(default = "default_group")]
+    group: String,
+    stimuli: String,
+    #[serde(default)]
+    media: MediaFilter,
+    #[serde(default)]
+    trials_per_participant: usize,
+    #[serde(default)]
+    ratings_per_stimulus: usize,
+    #[serde(default)]
+    practice_trials: usize,
+    #[serde(default = "yes")]
+    demographics: bool,
+    #[serde(default = "default_reservation")]
+    reservation_minutes: u32,
+    consent: String,
+    instructions: String,
+    debrief: String,
+    #[serde(default)]
+    emotion: EmotionOptions,
+    #[serde(default)]
+    au_coding: CodingOptions,
+    #[serde(default)]
+    rating: RatingOptions,
+    #[serde(default)]
+    attention: AttentionPolicy,
+    #[serde(default)]
+    recruitment: Recruitment,
+}
+
+fn default_group() -> String {
+    "participants".into()
+}
+fn yes() -> bool {
+    true
+}
+fn default_reservation() -> u32 {
+    120
+}
+
+/// A validated study design.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StudyDesign {
+    pub slug: String,
+    pub title: String,
+    pub task: TaskKind,
+    pub group: String,
+    /// The stimulus set directory as written (relative to the design file).
+    pub stimuli: String,
+    pub media: MediaFilter,
+    /// 0 = every stimulus.
+    pub trials_per_participant: usize,
+    /// 0 = no limit (every participant sees every stimulus).
+    pub ratings_per_stimulus: usize,
+    pub practice_trials: usize,
+    pub demographics: bool,
+    pub reservation_minutes: u32,
+    pub consent: String,
+    pub instructions: String,
+    pub debrief: String,
+    pub emotion: EmotionOptions,
+    pub au_coding: CodingOptions,
+    pub rating: RatingOptions,
+    pub attention: AttentionPolicy,
+    pub recruitment: Recruitment,
+    /// The Likert items asked after the main question (emotion: believability; rating: items).
+    pub items: Vec<LikertItem>,
+}
+
+/// The answer labels of the emotion task: the EmFACS labels (with neutral) and "none".
+pub fn emotion_choices() -> Vec<String> {
+    let mut labels: Vec<String> = EmotionTable::built_in().iter().map(|e| e.label.clone()).collect();
+    labels.push("none".into());
+    labels
+}
+
+/// The believability item of the emotion task (HapFACS: 1 = not believable … 5 = very believable).
+pub fn believability_item() -> LikertItem {
+    LikertItem {
+        measure: "believability".into(),
+        prompt: "How believable is this expression?".into(),
+        min: 1,
+        max: 5,
+        min_label: "not believable at all".into(),
+        max_label: "very believable".into(),
+    }
+}
+
+impl StudyDesign {
+    pub fn from_toml(text: &str) -> Result<StudyDesign, DesignError> {
+        let raw: RawDesign = toml::from_str(text).map_err(|e| fail(toml_field(&e), e.message().to_string()))?;
+        raw.validate()
+    }
+
+    /// The SHA-256 (hex) of the consent text, stored with each participant's consent.
+    pub fn consent_sha256(&self) -> String {
+        use sha2::Digest;
+        hex::encode(sha2::Sha256::digest(self.consent.as_bytes()))
+    }
+
+    /// True when participants get a balanced share of the stimuli rather than all of them.
+    pub fn shares_stimuli(&self) -> bool {
+        self.trials_per_participant > 0
+    }
+}
+
+fn toml_field(e: &toml::de::Error) -> String {
+    match e.span() {
+        Some(span) => format!("bytes {}..{}", span.start, span.end),
+        None => "file".into(),
+    }
+}
+
+impl RawDesign {
+    fn validate(self) -> Result<StudyDesign, DesignError> {
+        let slug_ok = !self.slug.is_empty()
+            && self.slug.len() <= 64
+            && self.slug.bytes().all(|b| b.is_ascii_lowercase() || b.is_ascii_digit() || b == b'-' || b == b'_');
+        if !slug_ok {
+            return Err(fail("slug", format!("\"{}\" must be 1-64 characters of a-z, 0-9, '-' or '_'", self.slug)));
+        }
+        for (field, text) in [("title", &self.title), ("group", &self.group), ("stimuli", &self.stimuli), ("consent", &self.consent)] {
+            if text.trim().is_empty() {
+                return Err(fail(field, "must not be empty"));
+            }
+        }
+        if self.group.contains([',', '"', '\n']) {
+            return Err(fail("group", "must not contain commas, quotes or line breaks"));
+        }
+        if self.ratings_per_stimulus > 0 && self.trials_per_participant == 0 {
+            return Err(fail("ratings_per_stimulus", "needs trials_per_participant > 0 (a share of the stimuli per participant)"));
+        }
+        if self.reservation_minutes == 0 {
+            return Err(fail("reservation_minutes", "must be at least 1"));
+        }
+        let items = match self.task {
+            TaskKind::Emotion => self.emotion.believability.then(believability_item).into_iter().collect(),
+            TaskKind::Rating => {
+                if self.rating.item.is_empty() {
+                    return Err(fail("rating.item", "a rating study needs at least one [[rating.item]]"));
+                }
+                self.rating.item.clone()
+            }
+            TaskKind::AuCoding => Vec::new(),
+        };
+        check_items(&items)?;
+        check_attention(self.task, &self.attention, &items)?;
+        check_recruitment(&self.recruitment)?;
+        Ok(StudyDesign {
+            slug: self.slug,
+            title: self.title,
+            task: self.task,
+            group: self.group,
+            stimuli: self.stimuli,
+            media: self.media,
+            trials_per_participant: self.trials_per_participant,
+            ratings_per_stimulus: self.ratings_per_stimulus,
+            practice_trials: self.practice_trials,
+            demographics: self.demographics,
+            reservation_minutes: self.reservation_minutes,
+            consent: self.consent,
+            instructions: self.instructions,
+            debrief: self.debrief,
+            emotion: self.emotion,
+            au_coding: self.au_coding,
+            rating: self.rating,
+            attention: self.attention,
+            recruitment: self.recruitment,
+            items,
+        })
+    }
+}
+
+fn check_items(items: &[LikertItem]) -> Result<(), DesignError> {
+    for (i, item) in items.iter().enumerate() {
+        let field = format!("rating.item[{}] ({})", i + 1, item.measure);
+        let scale = Scale::ALL
+            .into_iter()
+            .find(|s| s.name() == item.measure)
+            .ok_or_else(|| fail(&field, "measure must be one of believability, description_match, q1, q2"))?;
+        let (lo, hi) = scale.range();
+        if item.min >= item.max || item.min < lo || item.max > hi {
+            return Err(fail(&field, format!("range {}..{} must lie within the analysis scale {lo}..{hi} and have min < max", item.min, item.max)));
+        }
+        if items[..i].iter().any(|other| other.measure == item.measure) {
+            return Err(fail(&field, "measure asked twice"));
+        }
+    }
+    Ok(())
+}
+
+fn check_attention(task: TaskKind, policy: &AttentionPolicy, items: &[LikertItem]) -> Result<(), DesignError> {
+    if policy.max_failures == 0 {
+        return Err(fail("attention.max_failures", "must be at least 1"));
+    }
+    for (i, check) in policy.checks.iter().enumerate() {
+        let field = format!("attention.checks[{}]", i + 1);
+        let ok = match (task, check.measure.as_str()) {
+            (TaskKind::Emotion, "emotion") => emotion_choices().contains(&check.value),
+            (TaskKind::AuCoding, "aus") => crate::facs::Catalog::built_in().parse(&check.value).is_ok(),
+            (_, measure) => items.iter().any(|item| item.measure == measure && check.value.parse::<u8>().is_ok_and(|v| item.values().contains(&v))),
+        };
+        if !ok {
+            return Err(fail(field, format!("answer {}=\"{}\" is not a possible answer of this {} task", check.measure, check.value, task.as_str())));
+        }
+    }
+    Ok(())
+}
+
+fn check_recruitment(r: &Recruitment) -> Result<(), DesignError> {
+    match r.platform {
+        Platform::Prolific | Platform::Mturk if r.completion_code.trim().is_empty() => {
+            Err(fail("recruitment.completion_code", format!("{} needs a completion code", r.platform.as_str())))
+        }
+        Platform::Sona if !(r.sona_credit_url.starts_with("https://") && r.sona_credit_url.contains("{id}")) => {
+            Err(fail("recruitment.sona_credit_url", "SONA needs an https:// credit URL containing {id}"))
+        }
+        _ => Ok(()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const BASE: &str = r#"
+slug = "exp3"
+title = "Emotions"
+task = "emotion"
+stimuli = "out/exp3"
+consent = "I agree."
+instructions = "Choose the emotion."
+debrief = "Thanks."
+"#;
+
+    #[test]
+    fn minimal_design_takes_defaults() {
+        let d = StudyDesign::from_toml(BASE).unwrap();
+        assert_eq!(d.task, TaskKind::Emotion);
+        assert_eq!(d.group, "participants");
+        assert_eq!(d.attention.max_failures, 2);
+        assert!(d.items.is_empty() && d.demographics && !d.shares_stimuli());
+        assert_eq!(d.consent_sha256().len(), 64);
+    }
+
+    #[test]
+    fn believability_adds_an_item() {
+        let d = StudyDesign::from_toml(&format!("{BASE}[emotion]\nbelievability = true\n")).unwrap();
+        assert_eq!(d.items, vec![believability_item()]);
+    }
+
+    #[test]
+    fn errors_name_the_field() {
+        let cases = [
+            (BASE.replace("exp3\"", "Exp 3\""), "slug"),
+            (format!("{BASE}ratings_per_stimulus = 5\n"), "ratings_per_stimulus"),
+            (BASE.replace("\"emotion\"", "\"rating\""), "rating.item"),
+            (
+                BASE.replace("\"emotion\"", "\"rating\"") + "[[rating.item]]\nmeasure = \"q1\"\nprompt = \"?\"\nmin = 0\nmax = 9\n",
+                "rating.item[1] (q1)",
+            ),
+            (format!("{BASE}[attention]\nchecks = [{{ instruction = \"x\", measure = \"emotion\", value = \"joy\" }}]\n"), "attention.checks[1]"),
+            (format!("{BASE}[recruitment]\nplatform = \"prolific\"\n"), "recruitment.completion_code"),
+            (format!("{BASE}[recruitment]\nplatform = \"sona\"\nsona_credit_url = \"http://x\"\n"), "recruitment.sona_credit_url"),
+        ];
+        for (text, field) in cases {
+            let e = StudyDesign::from_toml(&text).unwrap_err();
+            assert_eq!(e.field, field, "{e}");
+        }
+        let e = StudyDesign::from_toml(&format!("{BASE}colour = 1\n")).unwrap_err();
+        assert!(e.message.contains("colour"), "{e}");
+    }
+
+    #[test]
+    fn emotion_choices_are_the_nine_neutral_and_none() {
+        let c = emotion_choices();
+        assert_eq!(c.len(), 11);
+        assert!(c.contains(&"neutral".to_string()) && c.last().unwrap() == "none");
+    }
+}

@@ -1,0 +1,18 @@
+//! Studies: what a participant is asked, in which order, and how stimuli are shared out.
+//!
+//! Pure logic, no I/O: [`design`] reads a study design (TOML) into a [`StudyDesign`];
+//! [`assign`] picks each participant's stimuli so that counts stay balanced and orders them
+//! with the participant's seed; [`session`] is the participation state machine; [`task`]
+//! turns a submitted answer into validated `(measure, value)` pairs of the long response
+//! format (design.md §3). The web layer (`crate::web`) and the database (`crate::db`) call
+//! these; nothing here knows about HTTP or SQL.
+
+pub mod assign;
+pub mod design;
+pub mod session;
+pub mod task;
+pub mod templates;
+
+pub use design::{DesignError, Platform, StudyDesign, TaskKind};
+pub use session::SessionState;
+pub use task::{Answer, AnswerError, Submission};

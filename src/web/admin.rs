@@ -1,0 +1,263 @@
+//! Admin pages and the export API.
+//!
+//! Login with a password (argon2) opens a session cookie (HttpOnly, SameSite=Strict); every
+//! state-changing form carries the session's CSRF token, and a cross-origin `Origin` header is
+//! refused. Roles: viewers see progress and export, researchers also create, open, close and
+//! exclude, admins everything. `GET /api/v1/studies/{slug}/{file}` serves the same streamed
+//! exports to a bearer token made with `facslab admin token`.
+
+use std::collections::HashMap;
+
+use axum::Router;
+use axum::body::Body;
+use axum::extract::{Form, Path, Query, State};
+use axum::http::{HeaderMap, header};
+use axum::response::{IntoResponse, Redirect, Response};
+use axum::routing::{get, post};
+use serde_json::json;
+
+use super::{AppState, WebError, cookie, merge};
+use crate::db::admin::{AdminSession, Role};
+use crate::db::export::{Format, Scope, codebook};
+use crate::db::studies::set_stimuli;
+use crate::study::StudyDesign;
+
+const COOKIE: &str = "facslab_admin";
+
+pub fn routes() -> Router<AppState> {
+    Router::new()
+        .route("/admin/login", get(login_page).post(login))
+        .route("/admin/logout", post(logout))
+        .route("/admin", get(dashboard))
+        .route("/admin/studies", post(create_study))
+        .route("/admin/studies/new", get(new_study_page))
+        .route("/admin/studies/{slug}", get(study_page))
+        .route("/admin/studies/{slug}/progress.json", get(progress_json))
+        .route("/admin/studies/{slug}/status", post(set_status))
+        .route("/admin/studies/{slug}/exclude", post(exclude))
+        .route("/admin/studies/{slug}/export/{file}", get(export_by_session))
+        .route("/api/v1/studies/{slug}/{file}", get(export_by_token))
+}
+
+fn session_cookie(headers: &HeaderMap) -> Option<&str> {
+    cookie(headers, COOKIE)
+}
+
+/// The logged-in admin with at least `role`.
+async fn admin(app: &AppState, headers: &HeaderMap, role: Role) -> Result<AdminSession, WebError> {
+    let token = session_cookie(headers).ok_or(WebError::Unauthorized)?;
+    let session = app.db.admin_session(token).await?.ok_or(WebError::Unauthorized)?;
+    if session.role < role {
+        return Err(WebError::Forbidden(format!("this needs the {} role; you are {}", role.as_str(), session.role.as_str())));
+    }
+    Ok(session)
+}
+
+/// Like [`admin`], for a state-changing form: also checks the CSRF token and the origin.
+async fn admin_post(app: &AppState, headers: &HeaderMap, form: &HashMap<String, String>, role: Role) -> Result<AdminSession, WebError> {
+    let session = admin(app, headers, role).await?;
+    if form.get("csrf").map(String::as_str) != Some(session.csrf_token.as_str()) {
+        return Err(WebError::Forbidden("the form's security token is missing or stale; reload the page and try again".into()));
+    }
+    let host = headers.get(header::HOST).and_then(|h| h.to_str().ok()).unwrap_or("");
+    if let Some(origin) = headers.get(header::ORIGIN).and_then(|o| o.to_str().ok())
+        && origin != "null"
+        && origin.split_once("://").map(|(_, rest)| rest) != Some(host)
+    {
+        return Err(WebError::Forbidden("cross-site request refused".into()));
+    }
+    Ok(session)
+}
+
+/// Pages send anonymous visitors to the login page; other errors render as usual.
+fn or_login(result: Result<Response, WebError>) -> Response {
+    match result {
+        Err(WebError::Unauthorized) => Redirect::to("/admin/login").into_response(),
+        Err(e) => e.into_response(),
+        Ok(r) => r,
+    }
+}
+
+fn base(session: Option<&AdminSession>, title: &str) -> serde_json::Value {
+    json!({ "page_title": format!("{title} · facslab admin"), "header": "facslab admin", "session": session })
+}
+
+
+async fn login_page(State(app): State<AppState>) -> Response {
+    or_login(app.render("admin_login.html", &merge(base(None, "Log in"), json!({ "error": null }))))
+}
+
+async fn login(State(app): State<AppState>, Form(form): Form<HashMap<String, String>>) -> Response {
+    let (user, password) = (form.get("username").cloned().unwrap_or_default(), form.get("password").cloned().unwrap_or_default());
+    match app.db.login(&user, &password).await {
+        Ok(Some(token)) => {
+            let cookie = format!("{COOKIE}={token}; Path=/; HttpOnly; SameSite=Strict; Max-Age=43200");
+            ([(header::SET_COOKIE, cookie)], Redirect::to("/admin")).into_response()
+        }
+        Ok(None) => {
+            let page = app.render("admin_login.html", &merge(base(None, "Log in"), json!({ "error": "Unknown username or wrong password." })));
+            let mut page = or_login(page);
+            *page.status_mut() = axum::http::StatusCode::UNAUTHORIZED;
+            page
+        }
+        Err(e) => WebError::from(e).into_response(),
+    }
+}
+
+async fn logout(State(app): State<AppState>, headers: HeaderMap, Form(form): Form<HashMap<String, String>>) -> Response {
+    or_login(async {
+        admin_post(&app, &headers, &form, Role::Viewer).await?;
+        if let Some(token) = session_cookie(&headers) {
+            app.db.logout(token).await?;
+        }
+        let expired = format!("{COOKIE}=; Path=/; HttpOnly; SameSite=Strict; Max-Age=0");
+        Ok(([(header::SET_COOKIE, expired)], Redirect::to("/admin/login")).into_response())
+    }
+    .await)
+}
+
+async fn dashboard(State(app): State<AppState>, headers: HeaderMap) -> Response {
+    or_login(async {
+        let session = admin(&app, &headers, Role::Viewer).await?;
+        let mut studies = Vec::new();
+        for s in app.db.studies().await? {
+            let progress = app.db.progress(s.id).await?;
+            studies.push(json!({ "slug": s.slug, "title": s.title, "status": s.status, "progress": progress }));
+        }
+        app.render("admin_dashboard.html", &merge(base(Some(&session), "Studies"), json!({ "studies": studies })))
+    }
+    .await)
+}
+
+async fn study_page(State(app): State<AppState>, headers: HeaderMap, Path(slug): Path<String>) -> Response {
+    or_login(async {
+        let session = admin(&app, &headers, Role::Viewer).await?;
+        let row = app.db.study_by_slug(&slug).await?.ok_or(WebError::NotFound)?;
+        let progress = app.db.progress(row.id).await?;
+        let participants = app.db.participants(row.id).await?;
+        let counts = app.db.completed_counts(row.id).await?;
+        let design = row.design()?;
+        let context = json!({
+            "study": row,
+            "task": design.task.as_str(),
+            "target": design.ratings_per_stimulus,
+            "progress": progress,
+            "participants": participants,
+            "counts": counts,
+            "can_edit": session.role >= Role::Researcher,
+        });
+        app.render("admin_study.html", &merge(base(Some(&session), &row.title), context))
+    }
+    .await)
+}
+
+async fn progress_json(State(app): State<AppState>, headers: HeaderMap, Path(slug): Path<String>) -> Result<Response, WebError> {
+    admin(&app, &headers, Role::Viewer).await?;
+    let row = app.db.study_by_slug(&slug).await?.ok_or(WebError::NotFound)?;
+    Ok(axum::Json(app.db.progress(row.id).await?).into_response())
+}
+
+async fn set_status(State(app): State<AppState>, headers: HeaderMap, Path(slug): Path<String>, Form(form): Form<HashMap<String, String>>) -> Response {
+    or_login(async {
+        admin_post(&app, &headers, &form, Role::Researcher).await?;
+        let status = form.get("status").map(String::as_str).unwrap_or("");
+        if !["draft", "open", "closed"].contains(&status) {
+            return Err(WebError::BadRequest(format!("status \"{status}\" is not draft, open or closed")));
+        }
+        app.db.set_study_status(&slug, status).await?;
+        Ok(Redirect::to(&format!("/admin/studies/{slug}")).into_response())
+    }
+    .await)
+}
+
+async fn exclude(State(app): State<AppState>, headers: HeaderMap, Path(slug): Path<String>, Form(form): Form<HashMap<String, String>>) -> Response {
+    or_login(async {
+        admin_post(&app, &headers, &form, Role::Researcher).await?;
+        let row = app.db.study_by_slug(&slug).await?.ok_or(WebError::NotFound)?;
+        let public_id = form.get("participant").cloned().unwrap_or_default();
+        let excluded = form.get("excluded").map(String::as_str) == Some("1");
+        let reason = form.get("reason").map(|r| r.trim()).filter(|r| !r.is_empty()).unwrap_or("excluded by an admin");
+        app.db.set_excluded(row.id, &public_id, excluded, reason).await?;
+        Ok(Redirect::to(&format!("/admin/studies/{slug}")).into_response())
+    }
+    .await)
+}
+
+async fn new_study_page(State(app): State<AppState>, headers: HeaderMap) -> Response {
+    or_login(async {
+        let session = admin(&app, &headers, Role::Researcher).await?;
+        let templates: Vec<_> = crate::study::templates::ALL.iter().map(|(name, text)| json!({ "name": name, "text": text })).collect();
+        app.render("admin_new.html", &merge(base(Some(&session), "New study"), json!({ "templates": templates, "error": null, "spec": "", "set_dir": "" })))
+    }
+    .await)
+}
+
+async fn create_study(State(app): State<AppState>, headers: HeaderMap, Form(form): Form<HashMap<String, String>>) -> Response {
+    or_login(async {
+        let session = admin_post(&app, &headers, &form, Role::Researcher).await?;
+        let spec = form.get("spec").cloned().unwrap_or_default();
+        let set_dir = form.get("set_dir").cloned().unwrap_or_default();
+        let created = async {
+            let design = StudyDesign::from_toml(&spec).map_err(|e| e.to_string())?;
+            let stimuli = set_stimuli(std::path::Path::new(&set_dir), design.media).map_err(|e| e.to_string())?;
+            app.db.create_study(&design, &spec, &set_dir, &stimuli, false).await.map_err(|e| e.to_string())?;
+            Ok::<_, String>(design.slug)
+        }
+        .await;
+        match created {
+            Ok(slug) => Ok(Redirect::to(&format!("/admin/studies/{slug}")).into_response()),
+            Err(message) => {
+                let context = json!({ "templates": [], "error": message, "spec": spec, "set_dir": set_dir });
+                let mut page = app.render("admin_new.html", &merge(base(Some(&session), "New study"), context))?;
+                *page.status_mut() = axum::http::StatusCode::UNPROCESSABLE_ENTITY;
+                Ok(page)
+            }
+        }
+    }
+    .await)
+}
+
+async fn export_by_session(State(app): State<AppState>, headers: HeaderMap, Path((slug, file)): Path<(String, String)>, Query(q): Query<HashMap<String, String>>) -> Response {
+    or_login(async {
+        admin(&app, &headers, Role::Viewer).await?;
+        export(&app, &slug, &file, &q).await
+    }
+    .await)
+}
+
+async fn export_by_token(State(app): State<AppState>, headers: HeaderMap, Path((slug, file)): Path<(String, String)>, Query(q): Query<HashMap<String, String>>) -> Response {
+    let token = headers.get(header::AUTHORIZATION).and_then(|v| v.to_str().ok()).and_then(|v| v.strip_prefix("Bearer ")).unwrap_or("");
+    match app.db.api_token_valid(token).await {
+        Ok(true) => match export(&app, &slug, &file, &q).await {
+            Ok(r) => r,
+            Err(e) => e.json(),
+        },
+        Ok(false) => WebError::Unauthorized.json(),
+        Err(e) => WebError::from(e).json(),
+    }
+}
+
+/// A streamed export (`responses.csv`, `wide.csv`, `responses.json`) or the codebook.
+async fn export(app: &AppState, slug: &str, file: &str, query: &HashMap<String, String>) -> Result<Response, WebError> {
+    let study = app.study(slug).await?;
+    let attachment = |name: String| format!("attachment; filename=\"{name}\"");
+    if file == "codebook.csv" {
+        let name = format!("{slug}-codebook.csv");
+        return Ok(([(header::CONTENT_TYPE, "text/csv; charset=utf-8".to_string()), (header::CONTENT_DISPOSITION, attachment(name))], codebook(&study.design)).into_response());
+    }
+    let format = Format::parse(file).ok_or_else(|| WebError::BadRequest(format!("no export \"{file}\" (responses.csv, wide.csv, responses.json, codebook.csv)")))?;
+    let scope = match query.get("scope").map(String::as_str) {
+        None | Some("completed") => Scope::Completed,
+        Some("all") => Scope::All,
+        Some(other) => return Err(WebError::BadRequest(format!("scope \"{other}\" is not completed or all"))),
+    };
+    let mut stimuli: Vec<String> = study.stimuli.keys().cloned().collect();
+    stimuli.sort();
+    let rx = app.db.export(study.row.id, &study.design, stimuli, format, scope);
+    let stream = futures_util::stream::unfold(rx, |mut rx| async move { rx.recv().await.map(|chunk| (chunk.map_err(std::io::Error::other), rx)) });
+    Ok((
+        [(header::CONTENT_TYPE, format.content_type().to_string()), (header::CONTENT_DISPOSITION, attachment(format.file_name(slug)))],
+        Body::from_stream(stream),
+    )
+        .into_response())
+}

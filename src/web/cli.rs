@@ -1,0 +1,348 @@
+//! The study platform's commands: `serve`, `demo`, `study`, `admin` and `export`.
+
+use std::net::{IpAddr, SocketAddr};
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, bail};
+use clap::{Args, Subcommand};
+
+use super::{AppState, serve};
+use crate::db::Db;
+use crate::db::admin::Role;
+use crate::db::export::{Format, Scope};
+use crate::db::studies::set_stimuli;
+use crate::study::StudyDesign;
+
+/// The demo's stimulus set and study designs (compiled in, so `demo` runs anywhere).
+const DEMO_SET: &str = include_str!("../../stimuli/sets/demo.toml");
+const DEMO_STUDIES: [&str; 2] = [include_str!("../../studies/demo-emotions.toml"), include_str!("../../studies/demo-coding.toml")];
+
+#[derive(Args)]
+pub struct ServeArgs {
+    /// The study database (SQLite; created with its schema if missing).
+    #[arg(long, default_value = "facslab.db")]
+    pub db: PathBuf,
+    /// Address to listen on.
+    #[arg(long, default_value = "127.0.0.1")]
+    pub host: IpAddr,
+    /// Port to listen on (0 = any free port).
+    #[arg(long, default_value_t = 8080)]
+    pub port: u16,
+}
+
+#[derive(Args)]
+pub struct DemoArgs {
+    /// Directory for the demo's stimulus set and database.
+    #[arg(short, long, default_value = "facslab-demo")]
+    pub output: PathBuf,
+    /// Address to listen on.
+    #[arg(long, default_value = "127.0.0.1")]
+    pub host: IpAddr,
+    /// Port to listen on (0 = any free port).
+    #[arg(long, default_value_t = 8080)]
+    pub port: u16,
+    /// Build the set and the studies, print the URLs, and exit without serving.
+    #[arg(long)]
+    pub no_serve: bool,
+}
+
+#[derive(Subcommand)]
+pub enum StudyCommand {
+    /// Create a study from a design file and a built stimulus set.
+    #[command(after_help = "Examples:\n  facslab study create studies/exp3-emotions.toml --db lab.db --open\n  facslab study create my-study.toml --set out/exp3 --db lab.db")]
+    Create {
+        /// The study design (TOML; templates in studies/).
+        design: PathBuf,
+        /// The built stimulus set [default: the design's `stimuli`, relative to the design file].
+        #[arg(long)]
+        set: Option<PathBuf>,
+        #[arg(long, default_value = "facslab.db")]
+        db: PathBuf,
+        /// Open the study for participants right away.
+        #[arg(long)]
+        open: bool,
+    },
+    /// Check a study design without creating anything.
+    #[command(after_help = "Example:\n  facslab study check studies/exp1-coders.toml")]
+    Check { design: PathBuf },
+    /// List the studies with their progress.
+    #[command(after_help = "Example:\n  facslab study list --db lab.db")]
+    List {
+        #[arg(long, default_value = "facslab.db")]
+        db: PathBuf,
+    },
+    /// Open, close or return a study to draft.
+    #[command(after_help = "Example:\n  facslab study status exp3 open --db lab.db")]
+    Status {
+        slug: String,
+        #[arg(value_parser = ["draft", "open", "closed"])]
+        status: String,
+        #[arg(long, default_value = "facslab.db")]
+        db: PathBuf,
+    },
+}
+
+#[derive(Subcommand)]
+pub enum AdminCommand {
+    /// Create an admin account (the password is read from FACSLAB_PASSWORD or asked for).
+    #[command(after_help = "Examples:\n  facslab admin create alice --db lab.db                 # asks for the password\n  FACSLAB_PASSWORD=... facslab admin create bob --role viewer --db lab.db")]
+    Create {
+        username: String,
+        #[arg(long, default_value = "admin", value_parser = ["admin", "researcher", "viewer"])]
+        role: String,
+        #[arg(long, default_value = "facslab.db")]
+        db: PathBuf,
+    },
+    /// Make a token for the export API (printed once).
+    #[command(after_help = "Example:\n  facslab admin token alice --label nightly-backup --db lab.db\n  curl -H \"Authorization: Bearer TOKEN\" http://host/api/v1/studies/exp3/responses.csv")]
+    Token {
+        username: String,
+        #[arg(long, default_value = "api")]
+        label: String,
+        #[arg(long, default_value = "facslab.db")]
+        db: PathBuf,
+    },
+    /// Write a consistent copy of the database while the server runs (VACUUM INTO).
+    #[command(after_help = "Example:\n  facslab admin backup backup-2026-11-23.db --db lab.db")]
+    Backup {
+        output: PathBuf,
+        #[arg(long, default_value = "facslab.db")]
+        db: PathBuf,
+    },
+}
+
+#[derive(Args)]
+pub struct ExportArgs {
+    /// The study's slug.
+    #[arg(long)]
+    pub study: String,
+    /// responses.csv (long, the `analyze` input), wide.csv, responses.json or codebook.csv.
+    #[arg(long, default_value = "responses.csv")]
+    pub format: String,
+    /// Include every participation except withdrawn ones (default: completed, not excluded).
+    #[arg(long)]
+    pub all: bool,
+    #[arg(long, default_value = "facslab.db")]
+    pub db: PathBuf,
+    /// Output file.
+    #[arg(short, long)]
+    pub output: PathBuf,
+}
+
+fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
+    Ok(tokio::runtime::Builder::new_multi_thread().enable_all().build()?)
+}
+
+async fn open(db: &Path) -> anyhow::Result<Db> {
+    Db::open(db).await.with_context(|| format!("opening the study database {}", db.display()))
+}
+
+pub fn serve_command(args: ServeArgs) -> anyhow::Result<()> {
+    runtime()?.block_on(async {
+        let db = open(&args.db).await?;
+        let state = AppState::new(db)?;
+        serve(state, SocketAddr::new(args.host, args.port), |addr| {
+            println!("facslab study server on http://{addr}/admin  (database {}; Ctrl-C stops)", args.db.display());
+        })
+        .await
+    })
+}
+
+/// Creates a study from a design text and a set directory.
+async fn create_study(db: &Db, text: &str, set_dir: &Path, open: bool) -> anyhow::Result<StudyDesign> {
+    let design = StudyDesign::from_toml(text)?;
+    let stimuli = set_stimuli(set_dir, design.media)?;
+    let set_dir = std::path::absolute(set_dir).unwrap_or_else(|_| set_dir.to_path_buf());
+    db.create_study(&design, text, &set_dir.to_string_lossy(), &stimuli, open).await?;
+    Ok(design)
+}
+
+pub fn study_command(command: StudyCommand) -> anyhow::Result<()> {
+    match command {
+        StudyCommand::Check { design } => {
+            let text = std::fs::read_to_string(&design).with_context(|| format!("reading {}", design.display()))?;
+            let d = StudyDesign::from_toml(&text).with_context(|| format!("in {}", design.display()))?;
+            println!("{}: {} study \"{}\", {} Likert item(s), {} attention check(s)", d.slug, d.task.as_str(), d.title, d.items.len(), d.attention.checks.len());
+            Ok(())
+        }
+        StudyCommand::Create { design, set, db, open: open_now } => runtime()?.block_on(async {
+            let text = std::fs::read_to_string(&design).with_context(|| format!("reading {}", design.display()))?;
+            let parsed = StudyDesign::from_toml(&text).with_context(|| format!("in {}", design.display()))?;
+            let set = set.unwrap_or_else(|| design.parent().unwrap_or(Path::new(".")).join(&parsed.stimuli));
+            let db = open(&db).await?;
+            let d = create_study(&db, &text, &set, open_now).await.with_context(|| format!("creating the study of {}", design.display()))?;
+            println!("created study \"{}\" ({}) over {}; participants start at /s/{}", d.slug, if open_now { "open" } else { "draft" }, set.display(), d.slug);
+            Ok(())
+        }),
+        StudyCommand::List { db } => runtime()?.block_on(async {
+            let db = open(&db).await?;
+            for s in db.studies().await? {
+                let p = db.progress(s.id).await?;
+                println!("{:<20} {:<7} completed {:>4}  in progress {:>4}  abandoned {:>4}  responses {:>6}  {}", s.slug, s.status, p.completed, p.active + p.reserved, p.abandoned, p.responses, s.title);
+            }
+            Ok(())
+        }),
+        StudyCommand::Status { slug, status, db } => runtime()?.block_on(async {
+            open(&db).await?.set_study_status(&slug, &status).await?;
+            println!("{slug}: {status}");
+            Ok(())
+        }),
+    }
+}
+
+fn read_password() -> anyhow::Result<String> {
+    if let Ok(p) = std::env::var("FACSLAB_PASSWORD") {
+        return Ok(p);
+    }
+    eprint!("password (at least 10 characters): ");
+    let mut line = String::new();
+    std::io::stdin().read_line(&mut line)?;
+    Ok(line.trim_end_matches(['\n', '\r']).to_string())
+}
+
+pub fn admin_command(command: AdminCommand) -> anyhow::Result<()> {
+    match command {
+        AdminCommand::Create { username, role, db } => {
+            let password = read_password()?;
+            runtime()?.block_on(async {
+                let role = Role::parse(&role).unwrap_or(Role::Viewer);
+                open(&db).await?.create_admin(&username, &password, role).await?;
+                println!("created {} \"{username}\"", role.as_str());
+                Ok(())
+            })
+        }
+        AdminCommand::Token { username, label, db } => runtime()?.block_on(async {
+            let token = open(&db).await?.create_api_token(&username, &label).await?;
+            println!("{token}");
+            eprintln!("(shown once: keep it like a password)");
+            Ok(())
+        }),
+        AdminCommand::Backup { output, db } => runtime()?.block_on(async {
+            if output.exists() {
+                bail!("{} exists already", output.display());
+            }
+            open(&db).await?.backup(&output).await?;
+            println!("wrote {}", output.display());
+            Ok(())
+        }),
+    }
+}
+
+/// A whole export of a study as text.
+async fn export_text(db: &Db, slug: &str, file: &str, scope: Scope) -> anyhow::Result<String> {
+    let row = db.study_by_slug(slug).await?.with_context(|| format!("no study \"{slug}\" in this database"))?;
+    let design = row.design()?;
+    if file == "codebook.csv" {
+        return Ok(crate::db::export::codebook(&design));
+    }
+    let format = Format::parse(file).with_context(|| format!("unknown format \"{file}\" (responses.csv, wide.csv, responses.json, codebook.csv)"))?;
+    let stimuli = db.study_stimuli(row.id).await?.into_iter().map(|s| s.stimulus_id).collect();
+    let mut rx = db.export(row.id, &design, stimuli, format, scope);
+    let mut text = String::new();
+    while let Some(chunk) = rx.recv().await {
+        text.push_str(&chunk?);
+    }
+    Ok(text)
+}
+
+pub fn export_command(args: ExportArgs) -> anyhow::Result<()> {
+    runtime()?.block_on(async {
+        let db = open(&args.db).await?;
+        let text = export_text(&db, &args.study, &args.format, if args.all { Scope::All } else { Scope::Completed }).await?;
+        crate::stimuli::build::write_atomic(&args.output, text.as_bytes())?;
+        println!("wrote {}", args.output.display());
+        Ok(())
+    })
+}
+
+#[derive(Args)]
+pub struct ReportArgs {
+    /// The study's slug.
+    #[arg(long)]
+    pub study: String,
+    #[arg(long, default_value = "facslab.db")]
+    pub db: PathBuf,
+    /// Output directory for the report.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Include every participation except withdrawn ones (default: completed, not excluded).
+    #[arg(long)]
+    pub all: bool,
+    /// Count a coded AU as recognised only if its side matches.
+    #[arg(long)]
+    pub match_side: bool,
+    /// Count a coded AU as recognised only if its intensity letter matches.
+    #[arg(long)]
+    pub match_intensity: bool,
+}
+
+/// `facslab report --study`: the study's long export and its set's manifest, through `analyze`.
+/// The responses used are kept beside the report as `responses.csv`.
+pub fn report_command(args: ReportArgs) -> anyhow::Result<()> {
+    let (text, set_dir) = runtime()?.block_on(async {
+        let db = open(&args.db).await?;
+        let row = db.study_by_slug(&args.study).await?.with_context(|| format!("no study \"{}\" in {}", args.study, args.db.display()))?;
+        let text = export_text(&db, &args.study, "responses.csv", if args.all { Scope::All } else { Scope::Completed }).await?;
+        anyhow::Ok((text, PathBuf::from(row.set_dir)))
+    })?;
+    if text.lines().count() < 2 {
+        bail!("study \"{}\" has no responses to analyse yet (only completed, non-excluded participants count; --all adds the rest)", args.study);
+    }
+    let inputs = args.output.with_extension("inputs");
+    std::fs::create_dir_all(&inputs)?;
+    let responses = inputs.join("responses.csv");
+    crate::stimuli::build::write_atomic(&responses, text.as_bytes())?;
+    crate::analysis::cli::analyze(crate::analysis::cli::AnalyzeArgs {
+        responses,
+        manifest: set_dir.join("manifest.csv"),
+        output: args.output,
+        match_side: args.match_side,
+        match_intensity: args.match_intensity,
+    })
+}
+
+/// `facslab demo`: the demo set, two open demo studies, an admin account, the server.
+pub fn demo_command(args: DemoArgs) -> anyhow::Result<()> {
+    let set_dir = args.output.join("stimuli");
+    let spec = crate::stimuli::SetSpec::from_toml(DEMO_SET)?;
+    eprintln!("building the demo stimulus set in {} ...", set_dir.display());
+    crate::stimuli::build(&spec, &set_dir, &crate::stimuli::build::BuildOptions { jobs: None, progress: true })?;
+    let db_path = args.output.join("study.db");
+    runtime()?.block_on(async {
+        let db = open(&db_path).await?;
+        let mut slugs = Vec::new();
+        for text in DEMO_STUDIES {
+            let design = StudyDesign::from_toml(text)?;
+            if db.study_by_slug(&design.slug).await?.is_none() {
+                create_study(&db, text, &set_dir, true).await?;
+            }
+            slugs.push(design.slug);
+        }
+        let password_note = if db.admin_count().await? == 0 {
+            let password = crate::db::secret_token()[..16].to_string();
+            db.create_admin("admin", &password, Role::Admin).await?;
+            let note = format!("user admin, password {password}");
+            std::fs::write(args.output.join("admin-password.txt"), format!("{note}\n"))?;
+            note
+        } else {
+            format!("password in {}", args.output.join("admin-password.txt").display())
+        };
+        let print = |addr: SocketAddr| {
+            println!("facslab demo (database {}):", db_path.display());
+            for slug in &slugs {
+                println!("  participant: http://{addr}/s/{slug}");
+            }
+            println!("  admin:       http://{addr}/admin   ({password_note})");
+        };
+        if args.no_serve {
+            print(SocketAddr::new(args.host, args.port));
+            return Ok(());
+        }
+        let state = AppState::new(db)?;
+        serve(state, SocketAddr::new(args.host, args.port), |addr| {
+            print(addr);
+            println!("Ctrl-C stops the server.");
+        })
+        .await
+    })
+}

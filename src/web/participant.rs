@@ -1,0 +1,469 @@
+//! Participant pages: landing (confirm) → start (POST) → consent → demographics → instructions
+//! → trials → debrief with completion code and platform redirect.
+//!
+//! A participation is addressed by its secret token (`/p/{token}/…`). `GET /p/{token}` always
+//! sends the participant to where they stand, so a reload or a crash resumes at the first
+//! unanswered trial. Saves come as a plain form post (no script needed) or as JSON from the
+//! page script, which waits for the acknowledgement before moving on.
+
+use std::collections::HashMap;
+
+use axum::extract::{Form, Path, Query, State};
+use axum::http::{HeaderMap, StatusCode, header};
+use axum::response::{IntoResponse, Redirect, Response};
+use axum::routing::{get, post};
+use axum::{Json, Router};
+use serde_json::json;
+
+use super::{AppState, LoadedStudy, WebError, cookie, merge};
+use crate::db::participants::{Demographics, Participation, SaveOutcome, SaveTiming, Started, TrialRow};
+use crate::db::secret_token;
+use crate::facs::{Catalog, Region};
+use crate::study::assign::TrialKind;
+use crate::study::design::emotion_choices;
+use crate::study::{Platform, SessionState, Submission, TaskKind};
+
+pub fn routes() -> Router<AppState> {
+    Router::new()
+        .route("/s/{slug}", get(landing))
+        .route("/s/{slug}/start", post(start))
+        .route("/p/{token}", get(resume))
+        .route("/p/{token}/consent", get(consent_page).post(consent))
+        .route("/p/{token}/demographics", get(demographics_page).post(demographics))
+        .route("/p/{token}/instructions", get(instructions))
+        .route("/p/{token}/trial", get(trial_page))
+        .route("/p/{token}/trial/{position}", post(save_form))
+        .route("/p/{token}/api/trial/{position}", post(save_json))
+        .route("/p/{token}/media/{position}", get(media))
+        .route("/p/{token}/done", get(done))
+        .route("/p/{token}/withdraw", get(withdraw_page).post(withdraw))
+}
+
+/// Demographic questions and their choices (HapFACS Table 6 categories).
+const GENDERS: [&str; 3] = ["female", "male", "non-binary or other"];
+const ETHNICITIES: [&str; 6] = ["white", "black", "asian", "hispanic", "mixed", "other"];
+const EDUCATION: [&str; 6] = ["high school", "some college", "bachelor's degree", "master's degree", "doctorate", "other"];
+
+fn page<'a>(study: &'a LoadedStudy, title: &'a str) -> serde_json::Value {
+    json!({ "page_title": format!("{title} · {}", study.design.title), "header": study.design.title })
+}
+
+
+/// The confirm page: nothing is created by a GET, so link previews cannot use up a link.
+async fn landing(State(app): State<AppState>, Path(slug): Path<String>, Query(query): Query<HashMap<String, String>>) -> Result<Response, WebError> {
+    let study = app.study(&slug).await?;
+    let platform = study.design.recruitment.platform;
+    let params = entry_params(platform, &query)?;
+    let preview = platform == Platform::Mturk && query.get("assignmentId").is_some_and(|a| a == "ASSIGNMENT_ID_NOT_AVAILABLE");
+    let status = app.db.study_by_slug(&slug).await?.map(|s| s.status).unwrap_or_default();
+    let minutes = (study.design.trials_per_participant.max(study.stimuli.len().min(60)) as f64 * 0.25).ceil().max(2.0);
+    app.render(
+        "landing.html",
+        &merge(
+            page(&study, "Welcome"),
+            json!({ "title": study.design.title, "slug": slug, "params": params, "preview": preview, "closed": status != "open", "full": false, "minutes": minutes }),
+        ),
+    )
+}
+
+/// The platform parameters a study keeps, checked; the worker id must be there for a platform.
+fn entry_params(platform: Platform, given: &HashMap<String, String>) -> Result<Vec<(String, String)>, WebError> {
+    let mut kept = Vec::new();
+    for name in platform.entry_params() {
+        if let Some(value) = given.get(*name) {
+            if value.len() > 200 || value.chars().any(char::is_control) {
+                return Err(WebError::BadRequest(format!("the link's parameter {name} is malformed")));
+            }
+            kept.push((name.to_string(), value.clone()));
+        }
+    }
+    if let Some(worker) = platform.worker_param()
+        && !kept.iter().any(|(n, v)| n == worker && !v.trim().is_empty())
+    {
+        return Err(WebError::BadRequest(format!("this study link needs the {} parameter {worker}; please use the link from {}", platform.as_str(), platform.as_str())));
+    }
+    Ok(kept)
+}
+
+fn cookie_name(slug: &str) -> String {
+    format!("facslab_{slug}")
+}
+
+
+async fn start(State(app): State<AppState>, Path(slug): Path<String>, headers: HeaderMap, Form(form): Form<Vec<(String, String)>>) -> Result<Response, WebError> {
+    let study = app.study(&slug).await?;
+    let status = app.db.study_by_slug(&slug).await?.map(|s| s.status).unwrap_or_default();
+    if status != "open" {
+        return Err(WebError::Conflict("this study is not open at the moment".into()));
+    }
+    let platform = study.design.recruitment.platform;
+    let params = entry_params(platform, &form.into_iter().collect())?;
+    if platform == Platform::Local
+        && let Some(token) = cookie(&headers, &cookie_name(&slug))
+        && app.db.participation(token).await?.is_some_and(|p| p.study_id == study.row.id)
+    {
+        return Ok(Redirect::to(&format!("/p/{token}")).into_response());
+    }
+    let worker = match platform.worker_param() {
+        Some(name) => params.iter().find(|(n, _)| n == name).map(|(_, v)| v.clone()).unwrap_or_default(),
+        None => format!("local-{}", secret_token()),
+    };
+    let params_json = serde_json::to_string(&params.iter().cloned().collect::<HashMap<_, _>>()).unwrap_or_default();
+    let token = match app.db.start_participation(study.row.id, &study.design, &worker, &params_json).await? {
+        Started::New(token) | Started::Existing(token) => token,
+        Started::Full => {
+            return app.render(
+                "landing.html",
+                &merge(page(&study, "Full"), json!({ "title": study.design.title, "slug": slug, "params": [], "full": true })),
+            );
+        }
+    };
+    let set_cookie = format!("{}={token}; Path=/; HttpOnly; SameSite=Lax; Max-Age=604800", cookie_name(&slug));
+    Ok(([(header::SET_COOKIE, set_cookie)], Redirect::to(&format!("/p/{token}"))).into_response())
+}
+
+/// A participation with its study, or 404.
+async fn participation(app: &AppState, token: &str) -> Result<(Participation, std::sync::Arc<LoadedStudy>), WebError> {
+    let valid = token.len() == 32 && token.bytes().all(|b| b.is_ascii_hexdigit());
+    if !valid {
+        return Err(WebError::NotFound);
+    }
+    let p = app.db.participation(token).await?.ok_or(WebError::NotFound)?;
+    let study = app.study_by_id(p.study_id).await?;
+    Ok((p, study))
+}
+
+/// Where a participation goes next.
+fn next_url(p: &Participation, study: &LoadedStudy, trials: &[TrialRow]) -> String {
+    let t = &p.token;
+    match p.state {
+        SessionState::Completed | SessionState::ScreenedOut | SessionState::Withdrawn | SessionState::Abandoned => format!("/p/{t}/done"),
+        _ if !p.consented => format!("/p/{t}/consent"),
+        _ if study.design.demographics && !p.has_demographics => format!("/p/{t}/demographics"),
+        _ if !trials.iter().any(|t| t.answered) => format!("/p/{t}/instructions"),
+        _ => format!("/p/{t}/trial"),
+    }
+}
+
+async fn resume(State(app): State<AppState>, Path(token): Path<String>) -> Result<Response, WebError> {
+    let (p, study) = participation(&app, &token).await?;
+    let trials = app.db.trials(p.id).await?;
+    Ok(Redirect::to(&next_url(&p, &study, &trials)).into_response())
+}
+
+/// Sends a participant who is not at `step` to where they belong.
+async fn at_step(app: &AppState, token: &str, step: &str) -> Result<Result<(Participation, std::sync::Arc<LoadedStudy>, Vec<TrialRow>), Response>, WebError> {
+    let (p, study) = participation(app, token).await?;
+    let trials = app.db.trials(p.id).await?;
+    let next = next_url(&p, &study, &trials);
+    let here = next.ends_with(step) || (step == "/trial" && next.ends_with("/instructions") && p.state == SessionState::Active);
+    if !here {
+        return Ok(Err(Redirect::to(&next).into_response()));
+    }
+    Ok(Ok((p, study, trials)))
+}
+
+async fn consent_page(State(app): State<AppState>, Path(token): Path<String>) -> Result<Response, WebError> {
+    let (_, study, _) = match at_step(&app, &token, "/consent").await? {
+        Ok(v) => v,
+        Err(redirect) => return Ok(redirect),
+    };
+    app.render("consent.html", &merge(page(&study, "Consent"), json!({ "token": token, "consent": study.design.consent })))
+}
+
+async fn consent(State(app): State<AppState>, Path(token): Path<String>, Form(form): Form<HashMap<String, String>>) -> Result<Response, WebError> {
+    let (_, study) = participation(&app, &token).await?;
+    if form.get("agree").map(String::as_str) != Some("1") {
+        return Err(WebError::BadRequest("please tick the consent box to take part, or close this page".into()));
+    }
+    app.db.give_consent(&token, &study.design.consent_sha256()).await?;
+    Ok(Redirect::to(&format!("/p/{token}")).into_response())
+}
+
+fn demographics_context(study: &LoadedStudy, token: &str, error: Option<&str>) -> serde_json::Value {
+    merge(
+        page(study, "About you"),
+        json!({
+            "token": token,
+            "error": error,
+            "questions": [
+                { "name": "gender", "label": "Gender", "options": GENDERS },
+                { "name": "ethnicity", "label": "Ethnicity", "options": ETHNICITIES },
+                { "name": "education", "label": "Highest education", "options": EDUCATION },
+            ],
+        }),
+    )
+}
+
+async fn demographics_page(State(app): State<AppState>, Path(token): Path<String>) -> Result<Response, WebError> {
+    let (_, study, _) = match at_step(&app, &token, "/demographics").await? {
+        Ok(v) => v,
+        Err(redirect) => return Ok(redirect),
+    };
+    app.render("demographics.html", &demographics_context(&study, &token, None))
+}
+
+/// Reads the demographics form; `Err` names the field that is wrong.
+fn read_demographics(form: &HashMap<String, String>) -> Result<Demographics, String> {
+    let age = match form.get("age").map(|a| a.trim()).filter(|a| !a.is_empty()) {
+        None => None,
+        Some(a) => match a.parse::<i64>() {
+            Ok(v) if (16..=120).contains(&v) => Some(v),
+            _ => return Err(format!("Age: \"{a}\" is not an age between 16 and 120.")),
+        },
+    };
+    let pick = |name: &str, options: &[&str]| -> Result<String, String> {
+        let value = form.get(name).map(|v| v.trim()).unwrap_or("");
+        if value.is_empty() || options.contains(&value) { Ok(value.to_string()) } else { Err(format!("{name}: \"{value}\" is not one of the choices.")) }
+    };
+    Ok(Demographics { age, gender: pick("gender", &GENDERS)?, ethnicity: pick("ethnicity", &ETHNICITIES)?, education: pick("education", &EDUCATION)? })
+}
+
+async fn demographics(State(app): State<AppState>, Path(token): Path<String>, Form(form): Form<HashMap<String, String>>) -> Result<Response, WebError> {
+    let (p, study) = participation(&app, &token).await?;
+    if !p.consented {
+        return Ok(Redirect::to(&format!("/p/{token}")).into_response());
+    }
+    match read_demographics(&form) {
+        Ok(d) => {
+            app.db.save_demographics(&token, &d).await?;
+            Ok(Redirect::to(&format!("/p/{token}")).into_response())
+        }
+        Err(message) => {
+            let mut page = app.render("demographics.html", &demographics_context(&study, &token, Some(&message)))?;
+            *page.status_mut() = StatusCode::UNPROCESSABLE_ENTITY;
+            Ok(page)
+        }
+    }
+}
+
+async fn instructions(State(app): State<AppState>, Path(token): Path<String>) -> Result<Response, WebError> {
+    let (_, study, _) = match at_step(&app, &token, "/instructions").await? {
+        Ok(v) => v,
+        Err(redirect) => return Ok(redirect),
+    };
+    app.render("instructions.html", &merge(page(&study, "Instructions"), json!({ "token": token, "instructions": study.design.instructions })))
+}
+
+/// The AU checklist, grouped as coders know it.
+fn au_groups() -> serde_json::Value {
+    let catalog = Catalog::built_in();
+    let group = |region: Region| {
+        let aus: Vec<_> = catalog.iter().filter(|au| au.region == region).map(|au| json!({ "code": au.code.0, "name": au.name, "unilateral": au.unilateral })).collect();
+        json!({ "label": capitalised(region.label()), "aus": aus })
+    };
+    json!([group(Region::Upper), group(Region::Lower), group(Region::HeadEye)])
+}
+
+fn capitalised(text: &str) -> String {
+    let mut chars = text.chars();
+    chars.next().map(|c| c.to_uppercase().chain(chars).collect()).unwrap_or_default()
+}
+
+async fn trial_page(State(app): State<AppState>, Path(token): Path<String>) -> Result<Response, WebError> {
+    let (_, study, trials) = match at_step(&app, &token, "/trial").await? {
+        Ok(v) => v,
+        Err(redirect) => return Ok(redirect),
+    };
+    let Some(trial) = trials.iter().find(|t| !t.answered) else {
+        return Ok(Redirect::to(&format!("/p/{token}")).into_response());
+    };
+    let design = &study.design;
+    let stimulus = study.stimuli.get(&trial.stimulus_id).ok_or_else(|| WebError::Internal(format!("stimulus {} missing from the study", trial.stimulus_id)))?;
+    let done = trials.iter().filter(|t| t.answered).count();
+    let attention = trial.check_index.and_then(|i| design.attention.checks.get(i)).map(|c| c.instruction.clone());
+    let description = (design.task == TaskKind::Rating).then(|| design.rating.descriptions.get(&stimulus.emotion).cloned()).flatten();
+    let choices: Vec<_> = emotion_choices().into_iter().map(|c| json!({ "value": c, "label": if c == "none" { "None of these".to_string() } else { capitalised(&c) } })).collect();
+    let items: Vec<_> = design
+        .items
+        .iter()
+        .map(|i| json!({ "measure": i.measure, "prompt": i.prompt, "values": i.values().collect::<Vec<_>>(), "min_label": i.min_label, "max_label": i.max_label }))
+        .collect();
+    let context = json!({
+        "token": token,
+        "position": trial.position,
+        "idempotency_key": secret_token(),
+        "media": stimulus.media,
+        "practice": trial.kind == TrialKind::Practice,
+        "attention": attention,
+        "description": description,
+        "task": design.task.as_str(),
+        "choices": choices,
+        "au_groups": if design.task == TaskKind::AuCoding { au_groups() } else { json!([]) },
+        "coding_intensity": design.au_coding.intensity,
+        "coding_side": design.au_coding.side,
+        "items": items,
+        "done": done,
+        "total": trials.len(),
+        "percent": done * 100 / trials.len().max(1),
+        "progress_label": format!("{} of {}", done + 1, trials.len()),
+    });
+    app.render("trial.html", &merge(page(&study, "Face"), context))
+}
+
+/// Validates and stores one answer; returns where the participant goes next.
+async fn save(app: &AppState, token: &str, position: i64, submission: Submission) -> Result<(SaveOutcome, String), WebError> {
+    let (p, study) = participation(app, token).await?;
+    let answer = submission.answer(&study.design)?;
+    let timing = SaveTiming { rt_ms: submission.rt_ms, video_ended: submission.video_ended, load_failed: submission.load_failed };
+    let outcome = app.db.save_response(&p.token, position, &submission.idempotency_key, &answer, timing, &study.design).await?;
+    let next = if outcome.state == SessionState::Active && outcome.remaining > 0 { format!("/p/{token}/trial") } else { format!("/p/{token}/done") };
+    Ok((outcome, next))
+}
+
+async fn save_form(State(app): State<AppState>, Path((token, position)): Path<(String, i64)>, Form(form): Form<Vec<(String, String)>>) -> Result<Response, WebError> {
+    let submission = Submission::from_form(form)?;
+    match save(&app, &token, position, submission).await {
+        Ok((_, next)) => Ok(Redirect::to(&next).into_response()),
+        Err(WebError::Conflict(_)) => Ok(Redirect::to(&format!("/p/{token}")).into_response()),
+        Err(e) => Err(e),
+    }
+}
+
+async fn save_json(State(app): State<AppState>, Path((token, position)): Path<(String, i64)>, body: axum::body::Bytes) -> Response {
+    let submission: Submission = match serde_json::from_slice(&body) {
+        Ok(s) => s,
+        Err(e) => return WebError::BadRequest(format!("the save is not valid JSON: {e}")).json(),
+    };
+    match save(&app, &token, position, submission).await {
+        Ok((outcome, next)) => Json(json!({ "saved": format!("{:?}", outcome.saved).to_lowercase(), "next": next, "remaining": outcome.remaining })).into_response(),
+        Err(WebError::Conflict(message)) => (StatusCode::CONFLICT, Json(json!({ "error": message, "next": format!("/p/{token}") }))).into_response(),
+        Err(e) => e.json(),
+    }
+}
+
+/// The stimulus of a trial, by position only (the URL says nothing about what it shows).
+async fn media(State(app): State<AppState>, Path((token, position)): Path<(String, i64)>, headers: HeaderMap) -> Result<Response, WebError> {
+    let (p, study) = participation(&app, &token).await?;
+    if !p.state.is_open() {
+        return Err(WebError::NotFound);
+    }
+    let trials = app.db.trials(p.id).await?;
+    let trial = trials.iter().find(|t| t.position == position).ok_or(WebError::NotFound)?;
+    let stimulus = study.stimuli.get(&trial.stimulus_id).ok_or(WebError::NotFound)?;
+    let bytes = tokio::fs::read(study.set_dir.join(&stimulus.file)).await.map_err(|e| WebError::Internal(format!("reading {}: {e}", stimulus.file)))?;
+    let content_type = if stimulus.media == "video" { "video/mp4" } else { "image/png" };
+    Ok(byte_range(bytes, content_type, headers.get(header::RANGE).and_then(|v| v.to_str().ok())))
+}
+
+/// A whole body, or the one byte range asked for (video elements seek with ranges).
+fn byte_range(bytes: Vec<u8>, content_type: &'static str, range: Option<&str>) -> Response {
+    let len = bytes.len();
+    let cache = (header::CACHE_CONTROL, "private, max-age=3600");
+    let parsed = range.and_then(|r| r.strip_prefix("bytes=")).and_then(|r| r.split_once('-')).and_then(|(a, b)| {
+        let start: usize = if a.is_empty() { len.saturating_sub(b.parse().ok()?) } else { a.parse().ok()? };
+        let end: usize = if a.is_empty() || b.is_empty() { len.checked_sub(1)? } else { b.parse::<usize>().ok()?.min(len.checked_sub(1)?) };
+        (start <= end).then_some((start, end))
+    });
+    match (range, parsed) {
+        (Some(_), Some((start, end))) => (
+            StatusCode::PARTIAL_CONTENT,
+            [(header::CONTENT_TYPE, content_type.to_string()), (header::CONTENT_RANGE, format!("bytes {start}-{end}/{len}")), (header::ACCEPT_RANGES, "bytes".into()), (cache.0, cache.1.into())],
+            bytes[start..=end].to_vec(),
+        )
+            .into_response(),
+        (Some(_), None) => (StatusCode::RANGE_NOT_SATISFIABLE, [(header::CONTENT_RANGE, format!("bytes */{len}"))]).into_response(),
+        (None, _) => ([(header::CONTENT_TYPE, content_type.to_string()), (header::ACCEPT_RANGES, "bytes".into()), (cache.0, cache.1.into())], bytes).into_response(),
+    }
+}
+
+/// The end of a participation: debrief, completion code and the platform's redirect (only
+/// reachable once the last save is stored), or the screen-out, withdrawal or expiry message.
+async fn done(State(app): State<AppState>, Path(token): Path<String>) -> Result<Response, WebError> {
+    let (p, study) = participation(&app, &token).await?;
+    let r = &study.design.recruitment;
+    let params: HashMap<String, String> = serde_json::from_str(&p.platform_params).unwrap_or_default();
+    let (heading, message, code) = match p.state {
+        SessionState::Completed => ("Thank you!", study.design.debrief.clone(), r.completion_code.clone()),
+        SessionState::ScreenedOut => (
+            "Thank you for your time",
+            "Some of the check questions were not answered as asked, so this session has ended. Your answers are kept and will not be used.".into(),
+            r.screened_out_code.clone(),
+        ),
+        SessionState::Withdrawn => ("You have withdrawn", "You have withdrawn from this study. Your answers will not be used. You can close this page.".into(), String::new()),
+        SessionState::Abandoned => ("This session has expired", "This session was inactive for too long and has ended. Please contact the researchers if you think this is a mistake.".into(), String::new()),
+        _ => return Ok(Redirect::to(&format!("/p/{token}")).into_response()),
+    };
+    let completed = p.state == SessionState::Completed;
+    let mut context = json!({ "heading": heading, "message": message, "code": code });
+    match r.platform {
+        Platform::Prolific if !code.is_empty() && (completed || p.state == SessionState::ScreenedOut) => {
+            context["redirect_url"] = json!(format!("https://app.prolific.com/submissions/complete?cc={}", urlencode(&code)));
+            context["redirect_label"] = json!("Return to Prolific");
+        }
+        Platform::Sona if completed => {
+            let id = params.get("id").cloned().unwrap_or_default();
+            context["redirect_url"] = json!(r.sona_credit_url.replace("{id}", &urlencode(&id)));
+            context["redirect_label"] = json!("Return to SONA and receive your credit");
+        }
+        Platform::Mturk if completed => {
+            let host = if r.mturk_sandbox { "https://workersandbox.mturk.com" } else { "https://www.mturk.com" };
+            context["mturk_action"] = json!(format!("{host}/mturk/externalSubmit"));
+            context["mturk_assignment"] = json!(params.get("assignmentId").cloned().unwrap_or_default());
+        }
+        _ => {}
+    }
+    app.render("message.html", &merge(page(&study, heading), context))
+}
+
+fn urlencode(text: &str) -> String {
+    text.bytes()
+        .map(|b| if b.is_ascii_alphanumeric() || b"-_.~".contains(&b) { (b as char).to_string() } else { format!("%{b:02X}") })
+        .collect()
+}
+
+async fn withdraw_page(State(app): State<AppState>, Path(token): Path<String>) -> Result<Response, WebError> {
+    let (p, study) = participation(&app, &token).await?;
+    if !p.state.is_open() {
+        return Ok(Redirect::to(&format!("/p/{token}/done")).into_response());
+    }
+    let context = json!({
+        "heading": "Withdraw from the study?",
+        "message": "You can stop at any time without giving a reason. If you withdraw, your answers will not be used.",
+        "confirm_action": format!("/p/{token}/withdraw"),
+        "confirm_label": "Withdraw",
+        "back_url": format!("/p/{token}"),
+    });
+    app.render("message.html", &merge(page(&study, "Withdraw"), context))
+}
+
+async fn withdraw(State(app): State<AppState>, Path(token): Path<String>) -> Result<Response, WebError> {
+    participation(&app, &token).await?;
+    app.db.withdraw(&token).await?;
+    Ok(Redirect::to(&format!("/p/{token}/done")).into_response())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ranges() {
+        let body: Vec<u8> = (0..10).collect();
+        let r = byte_range(body.clone(), "video/mp4", Some("bytes=2-4"));
+        assert_eq!(r.status(), StatusCode::PARTIAL_CONTENT);
+        assert_eq!(r.headers()[header::CONTENT_RANGE], "bytes 2-4/10");
+        assert_eq!(byte_range(body.clone(), "video/mp4", Some("bytes=-3")).headers()[header::CONTENT_RANGE], "bytes 7-9/10");
+        assert_eq!(byte_range(body.clone(), "video/mp4", Some("bytes=8-")).headers()[header::CONTENT_RANGE], "bytes 8-9/10");
+        assert_eq!(byte_range(body.clone(), "video/mp4", Some("bytes=12-14")).status(), StatusCode::RANGE_NOT_SATISFIABLE);
+        assert_eq!(byte_range(body, "video/mp4", None).status(), StatusCode::OK);
+    }
+
+    #[test]
+    fn demographics_are_checked() {
+        let form = |pairs: &[(&str, &str)]| pairs.iter().map(|(a, b)| (a.to_string(), b.to_string())).collect::<HashMap<_, _>>();
+        assert_eq!(read_demographics(&form(&[("age", "31"), ("gender", "female")])).unwrap().age, Some(31));
+        assert!(read_demographics(&form(&[("age", "7")])).unwrap_err().starts_with("Age"));
+        assert!(read_demographics(&form(&[("ethnicity", "martian")])).unwrap_err().starts_with("ethnicity"));
+        assert_eq!(read_demographics(&form(&[])).unwrap(), Demographics::default());
+    }
+
+    #[test]
+    fn platform_links_need_the_worker_id() {
+        let given: HashMap<String, String> = [("PROLIFIC_PID".to_string(), "abc".to_string()), ("other".to_string(), "x".to_string())].into();
+        assert_eq!(entry_params(Platform::Prolific, &given).unwrap(), vec![("PROLIFIC_PID".to_string(), "abc".to_string())]);
+        assert!(entry_params(Platform::Mturk, &given).is_err());
+        assert!(entry_params(Platform::Local, &given).unwrap().is_empty());
+        assert_eq!(urlencode("a b&c"), "a%20b%26c");
+    }
+}
