@@ -120,7 +120,7 @@ enum Command {
     Stimuli(StimuliCommand),
 
     /// Compute the validation report from responses and the stimulus manifest.
-    #[command(after_help = "Examples:\n  facslab analyze --responses responses.csv --manifest manifest.csv -o report\n  facslab analyze --responses r.csv --manifest m.csv -o strict --match-side --match-intensity\n\nWrites report.json (every number), report.html (tables and plots), one CSV per table and\nthe plots as PNG files. Inputs are validated in full first; on any error nothing is written.")]
+    #[command(after_help = "Examples:\n  facslab analyze --responses responses.csv --manifest manifest.csv -o report\n  facslab analyze --responses r.csv --manifest m.csv -o strict --match-side --match-intensity\n  facslab analyze --responses r.parquet --manifest m.parquet -o report   # built with --features polars\n\nWrites report.json (every number), report.html (tables and plots), one CSV per table and\nthe plots as PNG files. Inputs are validated in full first; on any error nothing is written.\nFiles ending in .parquet are read as Parquet (same results and error messages as CSV).")]
     Analyze(crate::analysis::cli::AnalyzeArgs),
 
     /// Build the demo stimulus set and two demo studies, then serve them and print the URLs.
@@ -150,6 +150,10 @@ enum Command {
     /// Write synthetic responses and a manifest shaped like one of the seed's experiments.
     #[command(after_help = "Examples:\n  facslab simulate --design exp1 --seed 1 -o sim1           # 3 coders, 49 single AUs\n  facslab simulate --design exp2 --accuracy 0.8 -o sim2       # 54 AU combinations\n  facslab simulate --design exp3 --participants 40 --groups local,amt --missing 0.02 -o sim3\n\nWrites DIR/responses.csv and DIR/manifest.csv; the same options give the same bytes.")]
     Simulate(crate::analysis::cli::SimulateArgs),
+
+    /// Convert a response file or a manifest between CSV and Parquet (needs the `polars` feature).
+    #[command(after_help = "Examples:\n  facslab convert sim/responses.csv -o responses.parquet\n  facslab convert sim/manifest.csv -o manifest.parquet\n  facslab convert responses.parquet -o responses.csv\n  facslab analyze --responses responses.parquet --manifest manifest.parquet -o report\n\nThe direction follows the extensions (.parquet or CSV). A column is stored as Int64 or\nFloat64 when every cell converts back to the same text, else as String; empty cells are\nnulls. Converting back gives every cell exactly. Needs facslab built with\n`cargo build --release --features polars`; without it the command says so and stops.")]
+    Convert(crate::analysis::cli::ConvertArgs),
 }
 
 #[derive(Subcommand)]
@@ -336,6 +340,7 @@ fn dispatch(command: Command) -> anyhow::Result<()> {
         }
         Command::Analyze(args) => crate::analysis::cli::analyze(args),
         Command::Simulate(args) => crate::analysis::cli::simulate(args),
+        Command::Convert(args) => crate::analysis::cli::convert(args),
     }
 }
 

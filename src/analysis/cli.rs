@@ -1,4 +1,4 @@
-//! The `analyze` and `simulate` commands' arguments and bodies (wired up in `crate::cli`).
+//! The `analyze`, `simulate` and `convert` commands' arguments and bodies (wired up in `crate::cli`).
 
 use std::path::PathBuf;
 
@@ -6,17 +6,21 @@ use anyhow::Context;
 use clap::{Args, ValueEnum};
 
 use super::coding::CodingOptions;
+use super::is_parquet;
 use super::manifest::Manifest;
+use super::parquet;
 use super::responses::Responses;
 use super::simulate::{Confusion, Design, SimOptions, simulate as run_simulation};
 use crate::facs::{Catalog, EmotionTable};
 
 #[derive(Args)]
 pub struct AnalyzeArgs {
-    /// Responses in the long format (participant_id,group,stimulus_id,trial,measure,value,rt_ms).
+    /// Responses in the long format (participant_id,group,stimulus_id,trial,measure,value,rt_ms):
+    /// CSV, or Parquet (`.parquet`) when built with the `polars` feature.
     #[arg(long)]
     pub responses: PathBuf,
-    /// The stimulus manifest (manifest.csv of a built stimulus set).
+    /// The stimulus manifest (manifest.csv of a built stimulus set; or `.parquet` with the
+    /// `polars` feature).
     #[arg(long)]
     pub manifest: PathBuf,
     /// Output directory (created; an earlier report in it is replaced).
@@ -126,5 +130,26 @@ pub fn simulate(args: SimulateArgs) -> anyhow::Result<()> {
         std::fs::write(&path, text).with_context(|| format!("writing {}", path.display()))?;
     }
     eprintln!("wrote {}/manifest.csv and responses.csv", args.output.display());
+    Ok(())
+}
+
+#[derive(Args)]
+pub struct ConvertArgs {
+    /// The table to convert: a response file or a manifest, CSV or `.parquet`.
+    pub input: PathBuf,
+    /// Where to write it, in the other format (`.parquet` for a CSV input, CSV otherwise).
+    #[arg(short, long)]
+    pub output: PathBuf,
+}
+
+/// Converts a table between CSV and Parquet, the direction given by the extensions.
+pub fn convert(args: ConvertArgs) -> anyhow::Result<()> {
+    let rows = match (is_parquet(&args.input), is_parquet(&args.output)) {
+        (false, true) => parquet::csv_to_parquet(&args.input, &args.output)?,
+        (true, false) => parquet::parquet_to_csv(&args.input, &args.output)?,
+        (true, true) => anyhow::bail!("both files are Parquet: the output of a .parquet input must be CSV (e.g. {})", args.input.with_extension("csv").display()),
+        (false, false) => anyhow::bail!("neither file is Parquet: the output of a CSV input must end in .parquet (e.g. {})", args.input.with_extension("parquet").display()),
+    };
+    eprintln!("wrote {rows} rows to {}", args.output.display());
     Ok(())
 }

@@ -6,7 +6,7 @@
 
 use std::path::Path;
 
-use super::input::{CsvInput, FxHashMap, InputError};
+use super::input::{FxHashMap, InputError, TableInput};
 use crate::facs::{Catalog, EmotionTable, Expression};
 
 /// Still image or video.
@@ -57,16 +57,16 @@ pub struct Manifest {
 impl Manifest {
     /// Reads and validates a manifest file.
     pub fn read(path: &Path, catalog: &Catalog, emotions: &EmotionTable) -> Result<Manifest, InputError> {
-        Self::parse(CsvInput::open(path)?, catalog, emotions)
+        Self::parse(TableInput::open(path)?, catalog, emotions)
     }
 
     /// Reads a manifest from CSV text (`name` is used in error messages).
     pub fn from_csv(name: &str, text: &str, catalog: &Catalog, emotions: &EmotionTable) -> Result<Manifest, InputError> {
         let bytes = text.as_bytes().to_vec();
-        Self::parse(CsvInput::from_reader(Path::new(name), Box::new(std::io::Cursor::new(bytes)))?, catalog, emotions)
+        Self::parse(TableInput::from_reader(Path::new(name), Box::new(std::io::Cursor::new(bytes)))?, catalog, emotions)
     }
 
-    fn parse(mut input: CsvInput, catalog: &Catalog, emotions: &EmotionTable) -> Result<Manifest, InputError> {
+    fn parse(mut input: TableInput, catalog: &Catalog, emotions: &EmotionTable) -> Result<Manifest, InputError> {
         let c_id = input.column("stimulus_id")?;
         let c_media = input.column("media")?;
         let c_identity = input.column("identity")?;

@@ -25,9 +25,14 @@ pub mod cli;
 pub mod coding;
 pub mod demographics;
 pub mod manifest;
+#[cfg(feature = "polars")]
+pub mod parquet;
+#[cfg(not(feature = "polars"))]
+#[path = "parquet_off.rs"]
+pub mod parquet;
 pub mod rating;
 pub mod simulate;
 pub mod responses;
 pub mod stats;
 
-pub use input::InputError;
+pub use input::{InputError, is_parquet};

@@ -20,7 +20,7 @@
 use std::collections::HashMap;
 use std::path::Path;
 
-use super::input::{CsvInput, Fields, FxHashMap, InputError, Place};
+use super::input::{Fields, FxHashMap, InputError, Place, TableInput};
 use super::manifest::Manifest;
 use crate::facs::{Catalog, EmotionTable, Expression};
 
@@ -175,7 +175,7 @@ fn measure(text: &str) -> Option<Measure> {
 impl Responses {
     /// Reads and validates a response file against `manifest`.
     pub fn read(path: &Path, manifest: &Manifest, catalog: &Catalog, emotions: &EmotionTable) -> Result<Responses, InputError> {
-        Self::parse(CsvInput::open(path)?, manifest, catalog, emotions)
+        Self::parse(TableInput::open(path)?, manifest, catalog, emotions)
     }
 
     /// Reads responses from CSV text (`name` is used in error messages).
@@ -187,10 +187,10 @@ impl Responses {
         emotions: &EmotionTable,
     ) -> Result<Responses, InputError> {
         let bytes = text.as_bytes().to_vec();
-        Self::parse(CsvInput::from_reader(Path::new(name), Box::new(std::io::Cursor::new(bytes)))?, manifest, catalog, emotions)
+        Self::parse(TableInput::from_reader(Path::new(name), Box::new(std::io::Cursor::new(bytes)))?, manifest, catalog, emotions)
     }
 
-    fn parse(mut input: CsvInput, manifest: &Manifest, catalog: &Catalog, emotions: &EmotionTable) -> Result<Responses, InputError> {
+    fn parse(mut input: TableInput, manifest: &Manifest, catalog: &Catalog, emotions: &EmotionTable) -> Result<Responses, InputError> {
         let c_part = input.column("participant_id")?;
         let c_group = input.column("group")?;
         let c_stim = input.column("stimulus_id")?;
@@ -451,7 +451,7 @@ mod tests {
         let manifest = Manifest::from_csv("m.csv", MANIFEST, catalog, &emotions).unwrap();
         let mut bytes = format!("{HEADER}p1,a,s2,1,emotion,fear,\np2,a,s2,1,emotion,").into_bytes();
         bytes.extend_from_slice(b"\xff\xfe,\n");
-        let input = CsvInput::from_reader(Path::new("r.csv"), Box::new(std::io::Cursor::new(bytes))).unwrap();
+        let input = TableInput::from_reader(Path::new("r.csv"), Box::new(std::io::Cursor::new(bytes))).unwrap();
         let e = Responses::parse(input, &manifest, catalog, &emotions).unwrap_err().to_string();
         assert!(e.contains("row 2 (line 3), column \"value\": not valid UTF-8"), "{e}");
     }

@@ -175,3 +175,146 @@ fn refuses_to_replace_a_directory_that_is_not_a_report() {
     let json = std::fs::read_to_string(dir.path().join("r/report.json")).unwrap();
     assert!(json.contains("\"match_side\": true"));
 }
+
+#[test]
+fn convert_needs_one_parquet_side() {
+    let dir = tempfile::tempdir().unwrap();
+    facslab_ok(dir.path(), &["simulate", "--design", "exp1", "-o", "sim"]);
+    let out = facslab(dir.path(), &["convert", "sim/responses.csv", "-o", "copy.csv"]);
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("neither file is Parquet"), "{}", stderr(&out));
+    assert!(!dir.path().join("copy.csv").exists());
+}
+
+#[cfg(not(feature = "polars"))]
+#[test]
+fn without_the_polars_feature_parquet_says_how_to_rebuild() {
+    let dir = tempfile::tempdir().unwrap();
+    facslab_ok(dir.path(), &["simulate", "--design", "exp1", "-o", "sim"]);
+    let out = facslab(dir.path(), &["convert", "sim/responses.csv", "-o", "r.parquet"]);
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("r.parquet: Parquet files need facslab built with the `polars` feature"), "{}", stderr(&out));
+    let out = facslab(dir.path(), &["analyze", "--responses", "r.parquet", "--manifest", "sim/manifest.csv", "-o", "report"]);
+    assert!(stderr(&out).contains("--features polars"), "{}", stderr(&out));
+}
+
+/// Parquet input and `facslab convert` (built with `--features polars`).
+#[cfg(feature = "polars")]
+mod parquet {
+    use std::path::Path;
+
+    use super::*;
+
+    /// Every cell of a CSV file, row by row (the header included).
+    fn cells(path: &Path) -> Vec<Vec<String>> {
+        let mut reader = csv::ReaderBuilder::new().has_headers(false).from_path(path).unwrap();
+        reader.records().map(|r| r.unwrap().iter().map(str::to_string).collect()).collect()
+    }
+
+    #[test]
+    fn csv_to_parquet_to_csv_keeps_every_cell() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        facslab_ok(d, &["simulate", "--design", "exp3", "--participants", "4", "--missing", "0.05", "-o", "sim3"]);
+        facslab_ok(d, &["simulate", "--design", "exp1", "-o", "sim1"]);
+        for csv in ["sim3/responses.csv", "sim3/manifest.csv", "sim1/responses.csv", "sim1/manifest.csv"] {
+            let parquet = csv.replace(".csv", ".parquet");
+            let back = csv.replace(".csv", ".back.csv");
+            facslab_ok(d, &["convert", csv, "-o", &parquet]);
+            facslab_ok(d, &["convert", &parquet, "-o", &back]);
+            let (before, after) = (cells(&d.join(csv)), cells(&d.join(&back)));
+            assert!(before.len() > 1 && before.iter().flatten().any(String::is_empty), "{csv}: rows and empty cells");
+            assert_eq!(after, before, "{csv}");
+        }
+    }
+
+    /// Analyses `responses` and `manifest` into `out` and returns its files, sorted, with the
+    /// input file names in report.json and report.html replaced by their CSV names.
+    fn report_files(d: &Path, responses: &str, manifest: &str, out: &str) -> Vec<(String, Vec<u8>)> {
+        facslab_ok(d, &["analyze", "--responses", responses, "--manifest", manifest, "-o", out]);
+        let mut files: Vec<(String, Vec<u8>)> = std::fs::read_dir(d.join(out))
+            .unwrap()
+            .map(|e| {
+                let e = e.unwrap();
+                let name = e.file_name().to_string_lossy().into_owned();
+                let mut bytes = std::fs::read(e.path()).unwrap();
+                if name == "report.json" || name == "report.html" {
+                    bytes = String::from_utf8(bytes).unwrap().replace("responses.parquet", "responses.csv").replace("manifest.parquet", "manifest.csv").into_bytes();
+                }
+                (name, bytes)
+            })
+            .collect();
+        files.sort();
+        files
+    }
+
+    #[test]
+    fn analyze_on_parquet_gives_the_same_report_as_on_csv() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        for (design, extra) in [("exp3", &["--participants", "6", "--missing", "0.02"][..]), ("exp1", &[][..])] {
+            let mut args = vec!["simulate", "--design", design, "-o", design];
+            args.extend_from_slice(extra);
+            facslab_ok(d, &args);
+            let path = |file: &str| format!("{design}/{file}");
+            for file in ["responses", "manifest"] {
+                facslab_ok(d, &["convert", &path(&format!("{file}.csv")), "-o", &path(&format!("{file}.parquet"))]);
+            }
+            let from_csv = report_files(d, &path("responses.csv"), &path("manifest.csv"), &path("from_csv"));
+            let from_parquet = report_files(d, &path("responses.parquet"), &path("manifest.parquet"), &path("from_parquet"));
+            assert!(from_csv.iter().any(|(name, _)| name == "report.json"));
+            assert_eq!(from_csv.len(), from_parquet.len(), "{design}");
+            for ((name, csv), (_, parquet)) in from_csv.iter().zip(&from_parquet) {
+                assert!(csv == parquet, "{design}: {name} differs between the CSV and the Parquet input");
+            }
+        }
+    }
+
+    /// Writes `csv` as bad.csv and as bad.parquet, analyses both, and returns the Parquet run's
+    /// message after checking that it is the CSV run's with the file name changed.
+    fn same_error_for_both(d: &Path, csv: &str) -> String {
+        std::fs::write(d.join("bad.csv"), csv).unwrap();
+        facslab_ok(d, &["convert", "bad.csv", "-o", "bad.parquet"]);
+        let message = |file: &str| {
+            let out = facslab(d, &["analyze", "--responses", file, "--manifest", "sim/manifest.csv", "-o", "report"]);
+            assert!(!out.status.success());
+            assert!(!d.join("report").exists(), "a report was written");
+            stderr(&out)
+        };
+        let from_parquet = message("bad.parquet");
+        assert_eq!(from_parquet.replace("bad.parquet", "bad.csv"), message("bad.csv"));
+        from_parquet
+    }
+
+    #[test]
+    fn bad_parquet_errors_name_the_column_and_row_as_for_csv() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        facslab_ok(d, &["simulate", "--design", "exp3", "--participants", "1", "-o", "sim"]);
+        let text = std::fs::read_to_string(d.join("sim/responses.csv")).unwrap();
+        // A missing column.
+        let without_measure: String = text.lines().map(|l| {
+            let mut cells: Vec<&str> = l.split(',').collect();
+            cells.remove(4);
+            cells.join(",") + "\n"
+        }).collect();
+        let e = same_error_for_both(d, &without_measure);
+        assert!(e.contains("bad.parquet: missing column \"measure\" (the header has: participant_id,group,stimulus_id,trial,value,rt_ms)"), "{e}");
+        // A bad cell on the fifth data row.
+        let id = text.lines().nth(5).unwrap().split(',').nth(2).unwrap().to_string();
+        let e = same_error_for_both(d, &text.replacen(&format!(",{id},"), ",nope,", 1));
+        assert!(e.contains("bad.parquet: row 5 (line 6), column \"stimulus_id\": unknown stimulus id \"nope\""), "{e}");
+    }
+
+    #[test]
+    fn a_file_that_is_not_parquet_is_named() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        facslab_ok(d, &["simulate", "--design", "exp1", "-o", "sim"]);
+        std::fs::copy(d.join("sim/responses.csv"), d.join("r.parquet")).unwrap();
+        let out = facslab(d, &["analyze", "--responses", "r.parquet", "--manifest", "sim/manifest.csv", "-o", "report"]);
+        assert!(!out.status.success());
+        assert!(stderr(&out).contains("r.parquet: not usable as Parquet"), "{}", stderr(&out));
+        assert!(!d.join("report").exists());
+    }
+}
