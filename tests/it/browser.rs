@@ -199,20 +199,40 @@ impl Browser {
 
     /// Resizes the window so that the page's viewport is `width`×`height` CSS pixels (e.g.
     /// 390×844 for a phone-size screenshot): headless Chromium's window includes some browser
-    /// chrome, so the window is grown by whatever the viewport lacks.
+    /// chrome, so the window is grown by whatever the viewport lacks. A loaded machine can apply
+    /// a resize late, so the viewport is read again until it stops changing.
     pub async fn set_window_size(&self, width: u32, height: u32) {
         let (mut outer_w, mut outer_h) = (width, height);
-        for _attempt in 0..3 {
+        let mut last = (0, 0);
+        for _attempt in 0..6 {
             self.client.set_window_size(outer_w, outer_h).await.unwrap_or_else(|e| panic!("window size {outer_w}x{outer_h}: {e}"));
-            let inner = self.execute("return [window.innerWidth, window.innerHeight];").await;
-            let (w, h) = (inner[0].as_i64().unwrap_or(0), inner[1].as_i64().unwrap_or(0));
+            let (w, h) = self.settled_viewport().await;
             if (w, h) == (width as i64, height as i64) {
                 return;
             }
+            last = (w, h);
             outer_w = (outer_w as i64 + width as i64 - w).max(1) as u32;
             outer_h = (outer_h as i64 + height as i64 - h).max(1) as u32;
         }
-        panic!("could not make the viewport {width}x{height}");
+        panic!("could not make the viewport {width}x{height} (it is {}x{})", last.0, last.1);
+    }
+
+    /// The viewport's size once two reads 50 ms apart agree (or after a second).
+    async fn settled_viewport(&self) -> (i64, i64) {
+        let read = async || {
+            let inner = self.execute("return [window.innerWidth, window.innerHeight];").await;
+            (inner[0].as_i64().unwrap_or(0), inner[1].as_i64().unwrap_or(0))
+        };
+        let mut previous = read().await;
+        for _ in 0..20 {
+            tokio::time::sleep(Duration::from_millis(50)).await;
+            let now = read().await;
+            if now == previous {
+                return now;
+            }
+            previous = now;
+        }
+        previous
     }
 
     /// Ends the session (Chromium quits) and stops `chromedriver`. Dropping the `Browser` does the

@@ -3,6 +3,7 @@
 mod analyze;
 mod browser;
 mod cli;
+mod e2e;
 mod golden;
 mod render;
 mod server;

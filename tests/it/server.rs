@@ -46,16 +46,21 @@ believability = true
     )
 }
 
-/// A temporary lab: the tiny set built in `dir/set`, the database `dir/lab.db` with an admin.
+/// A temporary lab: a stimulus set (the tiny one unless told) built in `dir/set`, the database `dir/lab.db` with an admin.
 pub struct Lab {
     pub dir: tempfile::TempDir,
 }
 
 impl Lab {
     pub fn new() -> Lab {
+        Lab::with_set(TINY_SET)
+    }
+
+    /// A lab whose set `dir/set` is built from the set specification `spec`.
+    pub fn with_set(spec: &str) -> Lab {
         let dir = tempfile::tempdir().unwrap();
-        std::fs::write(dir.path().join("tiny.toml"), TINY_SET).unwrap();
-        facslab_ok(dir.path(), &["stimuli", "build", "tiny.toml", "-o", "set", "--jobs", "2"]);
+        std::fs::write(dir.path().join("set.toml"), spec).unwrap();
+        facslab_ok(dir.path(), &["stimuli", "build", "set.toml", "-o", "set", "--jobs", "2"]);
         let out = Command::new(env!("CARGO_BIN_EXE_facslab"))
             .args(["admin", "create", "alice", "--db", "lab.db"])
             .env("FACSLAB_PASSWORD", ADMIN_PASSWORD)
