@@ -28,6 +28,8 @@ pub enum DbError {
     Conflict(String),
     #[error("{0}")]
     NotFound(String),
+    #[error("{0}")]
+    Design(#[from] crate::study::DesignError),
     /// Nothing was written; the same request may be sent again.
     #[error("not saved, please retry: {0}")]
     Unavailable(String),

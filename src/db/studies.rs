@@ -90,6 +90,16 @@ impl Db {
         Ok(id)
     }
 
+    /// Creates a study from a design's TOML text over the built set in `set_dir` (stored as an
+    /// absolute path, so the server finds the media whatever its working directory).
+    pub async fn create_study_from(&self, spec_toml: &str, set_dir: &std::path::Path, open: bool) -> Result<StudyDesign, DbError> {
+        let design = StudyDesign::from_toml(spec_toml)?;
+        let stimuli = set_stimuli(set_dir, design.media)?;
+        let set_dir = std::path::absolute(set_dir).unwrap_or_else(|_| set_dir.to_path_buf());
+        self.create_study(&design, spec_toml, &set_dir.to_string_lossy(), &stimuli, open).await?;
+        Ok(design)
+    }
+
     pub async fn study_by_slug(&self, slug: &str) -> Result<Option<StudyRow>, DbError> {
         Ok(sqlx::query("SELECT * FROM studies WHERE slug = ?").bind(slug).fetch_optional(&self.reader).await?.map(study_row))
     }

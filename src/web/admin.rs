@@ -19,8 +19,6 @@ use serde_json::json;
 use super::{AppState, WebError, cookie, merge};
 use crate::db::admin::{AdminSession, Role};
 use crate::db::export::{Format, Scope, codebook};
-use crate::db::studies::set_stimuli;
-use crate::study::StudyDesign;
 
 const COOKIE: &str = "facslab_admin";
 
@@ -197,16 +195,10 @@ async fn create_study(State(app): State<AppState>, headers: HeaderMap, Form(form
         let session = admin_post(&app, &headers, &form, Role::Researcher).await?;
         let spec = form.get("spec").cloned().unwrap_or_default();
         let set_dir = form.get("set_dir").cloned().unwrap_or_default();
-        let created = async {
-            let design = StudyDesign::from_toml(&spec).map_err(|e| e.to_string())?;
-            let stimuli = set_stimuli(std::path::Path::new(&set_dir), design.media).map_err(|e| e.to_string())?;
-            app.db.create_study(&design, &spec, &set_dir, &stimuli, false).await.map_err(|e| e.to_string())?;
-            Ok::<_, String>(design.slug)
-        }
-        .await;
-        match created {
-            Ok(slug) => Ok(Redirect::to(&format!("/admin/studies/{slug}")).into_response()),
-            Err(message) => {
+        match app.db.create_study_from(&spec, std::path::Path::new(&set_dir), false).await {
+            Ok(design) => Ok(Redirect::to(&format!("/admin/studies/{}", design.slug)).into_response()),
+            Err(e) => {
+                let message = e.to_string();
                 let context = json!({ "templates": [], "error": message, "spec": spec, "set_dir": set_dir });
                 let mut page = app.render("admin_new.html", &merge(base(Some(&session), "New study"), context))?;
                 *page.status_mut() = axum::http::StatusCode::UNPROCESSABLE_ENTITY;

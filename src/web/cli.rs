@@ -10,7 +10,6 @@ use super::{AppState, serve};
 use crate::db::Db;
 use crate::db::admin::Role;
 use crate::db::export::{Format, Scope};
-use crate::db::studies::set_stimuli;
 use crate::study::StudyDesign;
 
 /// The demo's stimulus set and study designs (compiled in, so `demo` runs anywhere).
@@ -148,15 +147,6 @@ pub fn serve_command(args: ServeArgs) -> anyhow::Result<()> {
     })
 }
 
-/// Creates a study from a design text and a set directory.
-async fn create_study(db: &Db, text: &str, set_dir: &Path, open: bool) -> anyhow::Result<StudyDesign> {
-    let design = StudyDesign::from_toml(text)?;
-    let stimuli = set_stimuli(set_dir, design.media)?;
-    let set_dir = std::path::absolute(set_dir).unwrap_or_else(|_| set_dir.to_path_buf());
-    db.create_study(&design, text, &set_dir.to_string_lossy(), &stimuli, open).await?;
-    Ok(design)
-}
-
 pub fn study_command(command: StudyCommand) -> anyhow::Result<()> {
     match command {
         StudyCommand::Check { design } => {
@@ -170,7 +160,7 @@ pub fn study_command(command: StudyCommand) -> anyhow::Result<()> {
             let parsed = StudyDesign::from_toml(&text).with_context(|| format!("in {}", design.display()))?;
             let set = set.unwrap_or_else(|| design.parent().unwrap_or(Path::new(".")).join(&parsed.stimuli));
             let db = open(&db).await?;
-            let d = create_study(&db, &text, &set, open_now).await.with_context(|| format!("creating the study of {}", design.display()))?;
+            let d = db.create_study_from(&text, &set, open_now).await.with_context(|| format!("creating the study of {}", design.display()))?;
             println!("created study \"{}\" ({}) over {}; participants start at /s/{}", d.slug, if open_now { "open" } else { "draft" }, set.display(), d.slug);
             Ok(())
         }),
@@ -314,7 +304,7 @@ pub fn demo_command(args: DemoArgs) -> anyhow::Result<()> {
         for text in DEMO_STUDIES {
             let design = StudyDesign::from_toml(text)?;
             if db.study_by_slug(&design.slug).await?.is_none() {
-                create_study(&db, text, &set_dir, true).await?;
+                db.create_study_from(text, &set_dir, true).await?;
             }
             slugs.push(design.slug);
         }

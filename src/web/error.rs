@@ -69,6 +69,7 @@ impl From<DbError> for WebError {
         match e {
             DbError::NotFound(_) => WebError::NotFound,
             DbError::Conflict(m) => WebError::Conflict(m),
+            DbError::Design(e) => WebError::BadRequest(e.to_string()),
             other => WebError::Internal(other.to_string()),
         }
     }
