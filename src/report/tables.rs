@@ -1,7 +1,7 @@
 //! One CSV per table. Numbers are written unrounded (full `f64` precision); empty = undefined.
 
 use super::Report;
-use crate::analysis::coding::{AuCount, Maybe};
+use crate::analysis::coding::{AuCount, Counts, Metrics, Maybe};
 
 struct Table {
     w: csv::Writer<Vec<u8>>,
@@ -31,6 +31,11 @@ fn opt(v: Option<f64>) -> String {
     v.map_or_else(String::new, num)
 }
 
+/// The `tp, fp, fn, tn, accuracy, precision, recall, f1` cells of a coder table row.
+fn counts_and_metrics(c: &Counts, m: &Metrics) -> [String; 8] {
+    [c.tp.to_string(), c.fp.to_string(), c.fn_.to_string(), c.tn.to_string(), num(m.accuracy), num(m.precision), num(m.recall), num(m.f1)]
+}
+
 fn maybe(m: &Maybe) -> String {
     opt(m.value)
 }
@@ -49,23 +54,10 @@ pub(super) fn all(report: &Report) -> Vec<(String, String)> {
     if let Some(c) = &report.coding {
         let mut t = Table::new(&["au", "name", "shown_in", "tp", "fp", "fn", "tn", "accuracy", "precision", "recall", "f1", "alpha", "fleiss_kappa", "mistaken_for"]);
         for r in &c.per_au {
-            let m = r.metrics;
-            t.row(vec![
-                r.au.to_string(),
-                r.name.clone(),
-                r.shown_in.to_string(),
-                r.counts.tp.to_string(),
-                r.counts.fp.to_string(),
-                r.counts.fn_.to_string(),
-                r.counts.tn.to_string(),
-                num(m.accuracy),
-                num(m.precision),
-                num(m.recall),
-                num(m.f1),
-                maybe(&r.alpha),
-                maybe(&r.fleiss_kappa),
-                au_list(&r.mistaken_for),
-            ]);
+            let mut cells = vec![r.au.to_string(), r.name.clone(), r.shown_in.to_string()];
+            cells.extend(counts_and_metrics(&r.counts, &r.metrics));
+            cells.extend([maybe(&r.alpha), maybe(&r.fleiss_kappa), au_list(&r.mistaken_for)]);
+            t.row(cells);
         }
         for (label, m) in [("macro mean", c.macro_mean), ("micro", c.micro)] {
             let mut cells = vec![label.to_string(), String::new(), String::new()];
@@ -94,21 +86,9 @@ pub(super) fn all(report: &Report) -> Vec<(String, String)> {
 
         let mut t = Table::new(&["combination", "recognised", "stimuli", "answers", "tp", "fp", "fn", "tn", "accuracy", "precision", "recall", "f1"]);
         for r in &c.combinations {
-            let m = r.metrics;
-            t.row(vec![
-                r.combination.clone(),
-                r.recognised_display.clone(),
-                r.stimuli.to_string(),
-                r.answers.to_string(),
-                r.counts.tp.to_string(),
-                r.counts.fp.to_string(),
-                r.counts.fn_.to_string(),
-                r.counts.tn.to_string(),
-                num(m.accuracy),
-                num(m.precision),
-                num(m.recall),
-                num(m.f1),
-            ]);
+            let mut cells = vec![r.combination.clone(), r.recognised_display.clone(), r.stimuli.to_string(), r.answers.to_string()];
+            cells.extend(counts_and_metrics(&r.counts, &r.metrics));
+            t.row(cells);
         }
         out.push(("table4_combinations.csv".into(), t.done()));
 
