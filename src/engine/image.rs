@@ -135,8 +135,8 @@ impl Srgb8 {
         // NaN and negatives → 0; the multiplication by a power of two is exact, so the bucket
         // starts at or below `x`, and a bucket never spans more than one step.
         let x = if linear > 0.0 { linear.min(1.0) } else { 0.0 };
-        let start = self.0.bucket_start[(x * SRGB_BUCKETS as f32) as usize];
-        start + u8::from(x >= self.0.thresholds[start as usize])
+        let bucket = (x * SRGB_BUCKETS as f32) as usize;
+        self.0.bucket_start[bucket] + u8::from(x >= self.0.bucket_next[bucket])
     }
 }
 
@@ -149,10 +149,11 @@ impl Default for Srgb8 {
 const SRGB_BUCKETS: usize = 4096;
 
 struct Srgb8Tables {
-    /// [`srgb8_thresholds`] then +∞.
-    thresholds: [f32; 256],
     /// Output for the value `i / SRGB_BUCKETS`, i = 0..=SRGB_BUCKETS.
     bucket_start: [u8; SRGB_BUCKETS + 1],
+    /// The threshold of the next output step after `bucket_start[i]` (+∞ after 255): a second
+    /// table indexed like the first, so that both loads can run at once.
+    bucket_next: [f32; SRGB_BUCKETS + 1],
 }
 
 fn srgb8_tables() -> &'static Srgb8Tables {
@@ -172,7 +173,8 @@ fn srgb8_tables() -> &'static Srgb8Tables {
             let bucket_end = (i + 1) as f32 / SRGB_BUCKETS as f32;
             assert!(next_step >= bucket_end, "sRGB bucket {i} spans more than one output step");
         }
-        Srgb8Tables { thresholds, bucket_start }
+        let bucket_next = bucket_start.map(|start| thresholds[start as usize]);
+        Srgb8Tables { bucket_start, bucket_next }
     })
 }
 

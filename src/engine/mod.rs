@@ -112,7 +112,7 @@ pub fn render_posed(posed: &Posed, identity: &Identity, settings: FrameSettings)
         .collect();
     let shadow = shade::ShadowMap::new(&casters, posed.anchor + Vec3::new(0.0, -0.3, 0.0), SHADOW_MAP_SIZE, threads);
     let shader = shade::FaceShader::new(model, posed, identity, height).with_shadows(&shadow);
-    let options = RenderOptions { samples_per_pixel: SampleCount::X4, threads, backface_culling: false };
+    let options = RenderOptions { samples_per_pixel: SampleCount::X4, threads, backface_culling: false, shade_per_surface: true };
     Ok(raster::render(&scene, &camera, &shader, &options))
 }
 

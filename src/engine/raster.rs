@@ -12,8 +12,9 @@
 //!    nearer) and the id of the nearest triangle: a visibility buffer. Coverage uses exact
 //!    integer edge functions with the top-left fill rule, so a sample on an edge shared by two
 //!    triangles belongs to exactly one of them, whatever the submission order.
-//! 3. **Resolve** (same task): per pixel the covered samples are grouped by triangle; each
-//!    distinct triangle is shaded once, at the centroid of its covered samples, with
+//! 3. **Resolve** (same task): per pixel the covered samples are grouped by triangle (or, with
+//!    [`RenderOptions::shade_per_surface`], by continuous surface); each group is shaded
+//!    once, at the centroid of its covered samples, with
 //!    perspective-correct barycentrics; colours are weighted by coverage, the uncovered samples
 //!    take the background, and the sum is converted to 8-bit sRGB once.
 //!
@@ -145,11 +146,17 @@ pub struct RenderOptions {
     pub threads: Option<usize>,
     /// Drop triangles that are clockwise as seen by the camera (counter-clockwise is front).
     pub backface_culling: bool,
+    /// Shade a pixel once per continuous surface instead of once per triangle: the samples of
+    /// neighbouring triangles of one scene item (a vertex in common) are shaded together, with
+    /// the triangle that covers most of them. Right for shaders whose output is continuous
+    /// across shared vertices (interpolated attributes); silhouettes, folds and separate items
+    /// stay anti-aliased as before.
+    pub shade_per_surface: bool,
 }
 
 impl Default for RenderOptions {
     fn default() -> Self {
-        RenderOptions { samples_per_pixel: SampleCount::X16, threads: None, backface_culling: true }
+        RenderOptions { samples_per_pixel: SampleCount::X16, threads: None, backface_culling: true, shade_per_surface: false }
     }
 }
 
@@ -200,7 +207,7 @@ pub fn render(scene: &[Triangles], camera: &Camera, shader: &impl Shader, option
     let tiles = run_tiles(&setup, options.threads, |buffers, tile| {
         let (x0, y0, w, h) = setup.tile_rect(tile);
         rasterize_tile(&setup, tile, &pattern, buffers);
-        resolve_tile(&setup, scene, camera, shader, &pattern, buffers, x0, y0, w, h)
+        resolve_tile(&setup, scene, camera, shader, options, &pattern, buffers, x0, y0, w, h)
     });
     let mut image = RgbImage::new(camera.width, camera.height);
     let stride = camera.width as usize * 3;
@@ -219,6 +226,29 @@ pub fn render(scene: &[Triangles], camera: &Camera, shader: &impl Shader, option
 /// Meant for tests and geometry checks (which surface covers a pixel, landmark occlusion):
 /// it materialises one `Option<Hit>` per sample, so it is slower than `render` itself.
 pub fn visibility(scene: &[Triangles], camera: &Camera, options: &RenderOptions) -> Visibility {
+    let samples = gather_samples(scene, camera, options, None, |setup, id, depth| {
+        let t = &setup.shade[id as usize];
+        Some(Hit { item: t.item, triangle: t.triangle, distance: 1.0 / depth })
+    });
+    let samples_per_pixel = options.samples_per_pixel.count();
+    Visibility { width: camera.width, height: camera.height, samples_per_pixel, samples }
+}
+
+/// The distance of the nearest surface at every sample (`+∞` where there is none), laid out
+/// like [`Visibility::samples`]: a depth map, e.g. for shadows.
+pub fn nearest_distances(scene: &[Triangles], camera: &Camera, options: &RenderOptions) -> Vec<f32> {
+    gather_samples(scene, camera, options, f32::INFINITY, |_, _, depth| 1.0 / depth)
+}
+
+/// Rasterises `scene` and maps every covered sample's (triangle id, depth) through `value`,
+/// `empty` elsewhere; returns the values in image order (`(y * width + x) * n + sample`).
+fn gather_samples<T: Copy + Send + Sync>(
+    scene: &[Triangles],
+    camera: &Camera,
+    options: &RenderOptions,
+    empty: T,
+    value: impl Fn(&Setup, u32, f32) -> T + Sync,
+) -> Vec<T> {
     let setup = Setup::new(scene, camera, options.backface_culling);
     let pattern = options.samples_per_pixel.fixed_offsets();
     let n = pattern.len();
@@ -227,29 +257,23 @@ pub fn visibility(scene: &[Triangles], camera: &Camera, options: &RenderOptions)
         rasterize_tile(&setup, tile, &pattern, buffers);
         let mut out = Vec::with_capacity(w * h * n);
         for row in 0..h {
-            for col in 0..w {
-                let base = (row * TILE + col) * n;
-                for s in 0..n {
-                    let id = buffers.id[base + s];
-                    out.push((id != NO_TRIANGLE).then(|| {
-                        let t = &setup.shade[id as usize];
-                        Hit { item: t.item, triangle: t.triangle, distance: 1.0 / buffers.depth[base + s] }
-                    }));
-                }
-            }
+            let base = row * TILE * n;
+            let ids = &buffers.id[base..base + w * n];
+            let depths = &buffers.depth[base..base + w * n];
+            out.extend(ids.iter().zip(depths).map(|(&id, &depth)| if id == NO_TRIANGLE { empty } else { value(&setup, id, depth) }));
         }
         out
     });
     let (width, height) = (camera.width as usize, camera.height as usize);
-    let mut samples = vec![None; width * height * n];
-    for (tile, hits) in tiles.iter().enumerate() {
+    let mut samples = vec![empty; width * height * n];
+    for (tile, values) in tiles.iter().enumerate() {
         let (x0, y0, w, h) = setup.tile_rect(tile);
         for row in 0..h {
             let dst = ((y0 + row) * width + x0) * n;
-            samples[dst..dst + w * n].copy_from_slice(&hits[row * w * n..(row + 1) * w * n]);
+            samples[dst..dst + w * n].copy_from_slice(&values[row * w * n..(row + 1) * w * n]);
         }
     }
-    Visibility { width: camera.width, height: camera.height, samples_per_pixel: n, samples }
+    samples
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -278,9 +302,11 @@ struct RasterTri {
 struct ShadeTri {
     item: u32,
     triangle: u32,
-    /// Snapped screen positions (pixels) of the (possibly clipped) triangle's corners.
-    p: [[f64; 2]; 3],
-    inv_w: [f64; 3],
+    /// Perspective weights of the corners at pixel position (x, y): corner k's weight is
+    /// `max(0, weight[k][0]·x + weight[k][1]·y + weight[k][2])` (its screen-space barycentric
+    /// coordinate, up to a common factor, times its 1/w), over the snapped corners of the
+    /// (possibly clipped) triangle.
+    weight: [[f64; 3]; 3],
     /// Barycentric coordinates of each corner with respect to the original triangle.
     bary: [Vec3; 3],
 }
@@ -355,11 +381,15 @@ impl Setup {
                 "scene item {item}: {} uvs for {n} positions",
                 tris.uvs.len()
             );
-            homogeneous.clear();
-            homogeneous
-                .extend(tris.positions.iter().map(|&p| camera.view_to_homogeneous_pixel(view.transform_point3(p))));
-            codes.clear();
-            codes.extend(homogeneous.iter().map(|&h| outcode(h, near, wf, hf)));
+            // Items often share one vertex array (the parts of a mesh): transform it once.
+            let shares_previous = item > 0 && std::ptr::eq(scene[item - 1].positions, tris.positions);
+            if !shares_previous {
+                homogeneous.clear();
+                homogeneous
+                    .extend(tris.positions.iter().map(|&p| camera.view_to_homogeneous_pixel(view.transform_point3(p))));
+                codes.clear();
+                codes.extend(homogeneous.iter().map(|&h| outcode(h, near, wf, hf)));
+            }
             for (t, idx) in tris.indices.iter().enumerate() {
                 let [i0, i1, i2] = idx.map(|i| i as usize);
                 assert!(
@@ -394,7 +424,7 @@ impl Setup {
     fn emit(&mut self, v: [ClipVertex; 3], item: u32, triangle: u32, backface_culling: bool) {
         let snap = |h: Vec3| -> [i64; 2] {
             let inv = 1.0 / h.z;
-            [(h.x * inv * SUB as f32).round() as i64, (h.y * inv * SUB as f32).round() as i64]
+            [round_to_i64(h.x * inv * SUB as f32), round_to_i64(h.y * inv * SUB as f32)]
         };
         let mut q = v.map(|c| snap(c.h));
         let mut v = v;
@@ -457,7 +487,13 @@ impl Setup {
             ox: p[0][0] as f32,
             oy: p[0][1] as f32,
         });
-        self.shade.push(ShadeTri { item, triangle, p, inv_w, bary: v.map(|c| c.bary) });
+        // Corner k's screen barycentric is the edge function of the opposite edge (i → j).
+        let weight = std::array::from_fn(|k| {
+            let (pi, pj) = (p[(k + 1) % 3], p[(k + 2) % 3]);
+            let (dx, dy) = (pj[0] - pi[0], pj[1] - pi[1]);
+            [-dy * inv_w[k], dx * inv_w[k], (dy * pi[0] - dx * pi[1]) * inv_w[k]]
+        });
+        self.shade.push(ShadeTri { item, triangle, weight, bary: v.map(|c| c.bary) });
     }
 
     /// Fills the per-tile triangle lists, each in scene order.
@@ -517,6 +553,13 @@ impl RasterTri {
             self.a[k] * x + self.b[k] * y + self.c[k] >= 0
         })
     }
+}
+
+/// `x.round() as i64` (halves away from zero) without a call into libm: adding one half in
+/// f64 is exact for every f32, and the truncation then rounds. Inputs are within the guard band.
+fn round_to_i64(x: f32) -> i64 {
+    let magnitude = (f64::from(x).abs() + 0.5) as i64;
+    if x < 0.0 { -magnitude } else { magnitude }
 }
 
 /// Sutherland–Hodgman against the five clip planes. Intersections are always computed from the
@@ -677,6 +720,100 @@ fn rasterize_tile_n<const N: usize>(setup: &Setup, tile: usize, pattern: &[(i64,
     }
 }
 
+/// The distinct surfaces among one pixel's samples, in order of first appearance: for each,
+/// the triangle id to shade, how many samples it covers and the sum of their offsets.
+struct PixelGroups {
+    id: [u32; MAX_SAMPLES],
+    count: [u32; MAX_SAMPLES],
+    sx: [i64; MAX_SAMPLES],
+    sy: [i64; MAX_SAMPLES],
+    /// Samples of the group's own triangle `id` (less than `count` after merging).
+    own: [u32; MAX_SAMPLES],
+    len: usize,
+}
+
+impl PixelGroups {
+    fn new() -> PixelGroups {
+        let zero = [0; MAX_SAMPLES];
+        PixelGroups { id: zero, count: zero, sx: [0; MAX_SAMPLES], sy: [0; MAX_SAMPLES], own: zero, len: 0 }
+    }
+
+    /// Groups a pixel's samples by triangle (replacing what was there).
+    fn group_by_triangle(&mut self, ids: &[u32], pattern: &[(i64, i64)]) {
+        let groups = self;
+        groups.len = 0;
+        for (&id, &(ox, oy)) in ids.iter().zip(pattern) {
+            let g = match groups.id[..groups.len].iter().position(|&g| g == id) {
+                Some(g) => g,
+                None => {
+                    let g = groups.len;
+                    groups.id[g] = id;
+                    groups.count[g] = 0;
+                    groups.own[g] = 0;
+                    groups.sx[g] = 0;
+                    groups.sy[g] = 0;
+                    groups.len += 1;
+                    groups.len - 1
+                }
+            };
+            groups.count[g] += 1;
+            groups.own[g] += 1;
+            groups.sx[g] += ox;
+            groups.sy[g] += oy;
+        }
+    }
+
+    /// Merges the groups of triangles that belong to one continuous surface (same scene item,
+    /// a vertex in common) into the group that covers most samples (the first of equals).
+    fn merge_connected(&mut self, connected: impl Fn(u32, u32) -> bool) {
+        let mut g = 1;
+        while g < self.len {
+            let id = self.id[g];
+            match (0..g).find(|&k| connected(self.id[k], id)) {
+                Some(k) => {
+                    if self.own[g] > self.own[k] {
+                        self.id[k] = id;
+                        self.own[k] = self.own[g];
+                    }
+                    self.count[k] += self.count[g];
+                    self.sx[k] += self.sx[g];
+                    self.sy[k] += self.sy[g];
+                    self.remove(g);
+                }
+                None => g += 1,
+            }
+        }
+    }
+
+    fn remove(&mut self, g: usize) {
+        for k in g..self.len - 1 {
+            self.id[k] = self.id[k + 1];
+            self.count[k] = self.count[k + 1];
+            self.sx[k] = self.sx[k + 1];
+            self.sy[k] = self.sy[k + 1];
+            self.own[k] = self.own[k + 1];
+        }
+        self.len -= 1;
+    }
+}
+
+impl Setup {
+    /// Whether triangles `a` and `b` (ids into `shade`) are neighbours on one mesh: the same
+    /// scene item and at least one vertex in common (pieces of one clipped triangle included).
+    fn connected(&self, scene: &[Triangles], a: u32, b: u32) -> bool {
+        if a == NO_TRIANGLE || b == NO_TRIANGLE {
+            return false;
+        }
+        let (ta, tb) = (&self.shade[a as usize], &self.shade[b as usize]);
+        if ta.item != tb.item {
+            return false;
+        }
+        let indices = scene[ta.item as usize].indices;
+        let (va, vb) = (indices[ta.triangle as usize], indices[tb.triangle as usize]);
+        va.iter().any(|v| vb.contains(v))
+    }
+}
+
 /// Shades the tile's pixels from its visibility buffer; returns `w * h * 3` sRGB bytes.
 #[allow(clippy::too_many_arguments)]
 fn resolve_tile(
@@ -684,6 +821,7 @@ fn resolve_tile(
     scene: &[Triangles],
     camera: &Camera,
     shader: &impl Shader,
+    options: &RenderOptions,
     pattern: &[(i64, i64)],
     buffers: &TileBuffers,
     x0: usize,
@@ -694,15 +832,11 @@ fn resolve_tile(
     let n = pattern.len();
     let inv_n = 1.0 / n as f32;
     let mut out = Vec::with_capacity(w * h * 3);
-    // Distinct triangles of a pixel, in order of first appearance among its samples.
-    let mut group_id = [0u32; MAX_SAMPLES];
-    let mut group_count = [0u32; MAX_SAMPLES];
-    let mut group_sx = [0i64; MAX_SAMPLES];
-    let mut group_sy = [0i64; MAX_SAMPLES];
     let full_sx: i64 = pattern.iter().map(|p| p.0).sum();
     let full_sy: i64 = pattern.iter().map(|p| p.1).sum();
     let full_count = n as f64 * SUB as f64;
     let srgb = Srgb8::new();
+    let mut groups = PixelGroups::new();
     for row in 0..h {
         for col in 0..w {
             let (px, py) = ((x0 + col) as u32, (y0 + row) as u32);
@@ -721,33 +855,20 @@ fn resolve_tile(
                 };
                 Vec3::ZERO + c * (n as f32 * inv_n)
             } else {
-                let mut groups = 0;
-                for (s, &id) in ids.iter().enumerate() {
-                    let g = match group_id[..groups].iter().position(|&g| g == id) {
-                        Some(g) => g,
-                        None => {
-                            group_id[groups] = id;
-                            group_count[groups] = 0;
-                            group_sx[groups] = 0;
-                            group_sy[groups] = 0;
-                            groups += 1;
-                            groups - 1
-                        }
-                    };
-                    group_count[g] += 1;
-                    group_sx[g] += pattern[s].0;
-                    group_sy[g] += pattern[s].1;
+                groups.group_by_triangle(ids, pattern);
+                if options.shade_per_surface {
+                    groups.merge_connected(|a, b| setup.connected(scene, a, b));
                 }
                 let mut colour = Vec3::ZERO;
-                for g in 0..groups {
-                    let weight = group_count[g] as f32 * inv_n;
-                    let c = if group_id[g] == NO_TRIANGLE {
+                for g in 0..groups.len {
+                    let weight = groups.count[g] as f32 * inv_n;
+                    let c = if groups.id[g] == NO_TRIANGLE {
                         shader.background(px, py)
                     } else {
-                        let count = f64::from(group_count[g]) * SUB as f64;
-                        let x = f64::from(px) + group_sx[g] as f64 / count;
-                        let y = f64::from(py) + group_sy[g] as f64 / count;
-                        let fragment = fragment(&setup.shade[group_id[g] as usize], scene, camera, x, y, (px, py));
+                        let count = f64::from(groups.count[g]) * SUB as f64;
+                        let x = f64::from(px) + groups.sx[g] as f64 / count;
+                        let y = f64::from(py) + groups.sy[g] as f64 / count;
+                        let fragment = fragment(&setup.shade[groups.id[g] as usize], scene, camera, x, y, (px, py));
                         shader.shade(&fragment)
                     };
                     colour += c * weight;
@@ -762,14 +883,7 @@ fn resolve_tile(
 
 /// Interpolates the triangle's attributes at pixel position (`x`, `y`) (perspective-correct).
 fn fragment(t: &ShadeTri, scene: &[Triangles], camera: &Camera, x: f64, y: f64, pixel: (u32, u32)) -> Fragment {
-    let p = &t.p;
-    let edge = |a: [f64; 2], b: [f64; 2]| (b[0] - a[0]) * (y - a[1]) - (b[1] - a[1]) * (x - a[0]);
-    // Screen-space barycentrics (up to a common factor), then weighted by 1/w.
-    let l = [edge(p[1], p[2]), edge(p[2], p[0]), edge(p[0], p[1])];
-    let mut wts = [0f64; 3];
-    for k in 0..3 {
-        wts[k] = l[k].max(0.0) * t.inv_w[k];
-    }
+    let wts = t.weight.map(|[a, b, c]| (a * x + b * y + c).max(0.0));
     let sum = wts[0] + wts[1] + wts[2];
     let b = if sum > 0.0 && sum.is_finite() { wts.map(|w| w / sum) } else { [1.0 / 3.0; 3] };
     let bary = t.bary[0] * b[0] as f32 + t.bary[1] * b[1] as f32 + t.bary[2] * b[2] as f32;
@@ -833,7 +947,7 @@ mod tests {
     }
 
     fn opts(samples: SampleCount) -> RenderOptions {
-        RenderOptions { samples_per_pixel: samples, threads: Some(1), backface_culling: false }
+        RenderOptions { samples_per_pixel: samples, threads: Some(1), backface_culling: false, shade_per_surface: false }
     }
 
     /// Colour by part: 0 white, 1 red, 2 green; black background.
@@ -848,6 +962,59 @@ mod tests {
         }
         fn background(&self, _: u32, _: u32) -> Vec3 {
             Vec3::ZERO
+        }
+    }
+
+    /// Colours by triangle index plus part (even red, odd green) and counts its calls.
+    struct TriangleShader(std::sync::atomic::AtomicUsize);
+    impl Shader for TriangleShader {
+        fn shade(&self, f: &Fragment) -> Vec3 {
+            self.0.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            if (f.triangle + u32::from(f.part)) % 2 == 0 { Vec3::X } else { Vec3::Y }
+        }
+        fn background(&self, _: u32, _: u32) -> Vec3 {
+            Vec3::ZERO
+        }
+    }
+
+    /// A quad split along its diagonal into two triangles: one item (shared vertices) or two.
+    #[test]
+    fn shading_per_surface_joins_neighbours_and_keeps_other_edges() {
+        let positions = [pix(8.0, 8.0, 0.0), pix(56.0, 8.0, 0.0), pix(56.0, 56.0, 0.0), pix(8.0, 56.0, 0.0)];
+        let quad = [[0, 1, 2], [0, 2, 3]];
+        let (first, second) = ([[0u32, 1, 2]], [[0u32, 2, 3]]);
+        let render_with = |scene: &[Triangles], per_surface: bool| {
+            let shader = TriangleShader(Default::default());
+            let options = RenderOptions { shade_per_surface: per_surface, ..opts(SampleCount::X4) };
+            let image = render(scene, &camera(S), &shader, &options);
+            let pixels: Vec<[u8; 3]> = image.data.chunks(3).map(|p| [p[0], p[1], p[2]]).collect();
+            let blended = pixels.iter().filter(|p| p[0] > 0 && p[1] > 0).count();
+            let covered = pixels.iter().filter(|p| p[0] > 0 || p[1] > 0).count();
+            (blended, covered, shader.0.into_inner())
+        };
+        let one_item = [item(&positions, &quad, 0)];
+        let (blended, covered, calls) = render_with(&one_item, false);
+        assert!(blended > 40, "per triangle, the diagonal is anti-aliased ({blended} pixels)");
+        assert!(calls > covered);
+        let (blended, covered, calls) = render_with(&one_item, true);
+        assert_eq!(blended, 0, "per surface, each pixel is shaded once");
+        assert_eq!(calls, covered, "one call per covered pixel");
+        let two_items = [item(&positions, &first, 0), item(&positions, &second, 1)];
+        let (blended, _, _) = render_with(&two_items, true);
+        assert!(blended > 40, "separate items stay anti-aliased against each other ({blended} pixels)");
+    }
+
+    #[test]
+    fn rounding_to_integers_matches_the_standard_library() {
+        let mut rng = Lcg(7);
+        let halves = (-40..40).map(|i| i as f32 * 0.5);
+        let near_halves = (-40..40).flat_map(|i| {
+            let h = i as f32 * 0.5;
+            [f32::from_bits(h.to_bits() + 1), f32::from_bits(h.to_bits().saturating_sub(1))]
+        });
+        let random = (0..10_000).map(|_| (rng.next_f32() - 0.5) * 2.0e6);
+        for x in halves.chain(near_halves).chain(random) {
+            assert_eq!(round_to_i64(x), x.round() as i64, "{x}");
         }
     }
 
@@ -1144,7 +1311,7 @@ mod tests {
         ];
         let cam = random_scene_camera(173, 131);
         let png = |threads| {
-            let o = RenderOptions { samples_per_pixel: SampleCount::X8, threads, backface_culling: false };
+            let o = RenderOptions { samples_per_pixel: SampleCount::X8, threads, backface_culling: false, shade_per_surface: false };
             render(&scene, &cam, &Busy, &o).encode_png()
         };
         let one = png(Some(1));
@@ -1167,7 +1334,7 @@ mod tests {
             part: 1,
         }];
         let cam = random_scene_camera(64, 48);
-        let o = RenderOptions { samples_per_pixel: SampleCount::X16, threads: None, backface_culling: false };
+        let o = RenderOptions { samples_per_pixel: SampleCount::X16, threads: None, backface_culling: false, shade_per_surface: false };
         let png = render(&scene, &cam, &Busy, &o).encode_png();
         let hex: String = Sha256::digest(&png).iter().map(|b| format!("{b:02x}")).collect();
         // Changes only when the rasteriser's output changes on purpose: then update it here.

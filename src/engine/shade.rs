@@ -12,7 +12,8 @@
 //! Invariant: a pure function of its inputs (no randomness but fixed hashes), so the same frame
 //! shades to the same bytes on any thread.
 
-use std::sync::OnceLock;
+use std::collections::BTreeMap;
+use std::sync::{Arc, Mutex, OnceLock};
 
 use glam::{Vec2, Vec3};
 
@@ -75,9 +76,8 @@ impl ShadowMap {
             width: size,
             height: size,
         };
-        let options = RenderOptions { samples_per_pixel: SampleCount::X1, threads, backface_culling: false };
-        let visibility = raster::visibility(scene, &camera, &options);
-        let distance = visibility.samples.iter().map(|hit| hit.map_or(f32::INFINITY, |h| h.distance)).collect();
+        let options = RenderOptions { samples_per_pixel: SampleCount::X1, threads, backface_culling: false, shade_per_surface: false };
+        let distance = raster::nearest_distances(scene, &camera, &options);
         ShadowMap { view: camera.view(), camera, distance }
     }
 
@@ -113,27 +113,80 @@ fn key_light_direction() -> Vec3 {
     Vec3::new(-0.5, 0.5, 0.71).normalize()
 }
 
-/// Slowly varying painted features, evaluated once per skin vertex and interpolated.
+/// Slowly varying painted features and region weights of one skin vertex, interpolated across
+/// triangles together.
+#[derive(Clone, Copy, Debug, Default)]
+struct SkinVertex {
+    mottle: f32,
+    cheek: f32,
+    oily: f32,
+    beard: f32,
+    hair: f32,
+    lips: f32,
+    inside_mouth: f32,
+}
+
+impl SkinVertex {
+    const FIELDS: usize = 7;
+
+    fn to_array(self) -> [f32; Self::FIELDS] {
+        [self.mottle, self.cheek, self.oily, self.beard, self.hair, self.lips, self.inside_mouth]
+    }
+
+    fn from_array(a: [f32; Self::FIELDS]) -> SkinVertex {
+        let [mottle, cheek, oily, beard, hair, lips, inside_mouth] = a;
+        SkinVertex { mottle, cheek, oily, beard, hair, lips, inside_mouth }
+    }
+}
+
+/// The painted features of one person's skin, per skin vertex (they depend only on the rest
+/// mesh, stubble and hairline).
 struct SkinMaps {
-    mottle: Vec<f32>,
-    cheek: Vec<f32>,
-    oily: Vec<f32>,
-    beard: Vec<f32>,
-    hair: Vec<f32>,
+    vertices: Vec<[f32; SkinVertex::FIELDS]>,
 }
 
 impl SkinMaps {
+    /// The maps of `identity`, computed once per person and shared by every frame.
+    fn cached(model: &FaceModel, identity: &Identity) -> Arc<SkinMaps> {
+        type Key = (String, u32, u32);
+        static CACHE: OnceLock<Mutex<BTreeMap<Key, Arc<SkinMaps>>>> = OnceLock::new();
+        let key = (identity.id.clone(), identity.stubble.to_bits(), identity.hairline.to_bits());
+        let cache = CACHE.get_or_init(Default::default);
+        if let Some(found) = cache.lock().unwrap_or_else(|p| p.into_inner()).get(&key) {
+            return Arc::clone(found);
+        }
+        let maps = Arc::new(SkinMaps::new(model, identity));
+        cache.lock().unwrap_or_else(|p| p.into_inner()).insert(key, Arc::clone(&maps));
+        maps
+    }
+
     fn new(model: &FaceModel, identity: &Identity) -> SkinMaps {
         let skin = &model.rest[..model.part(Part::Skin).vertices.end as usize];
-        let map = |f: &dyn Fn(Vec3) -> f32| skin.iter().map(|&p| f(p)).collect::<Vec<f32>>();
-        let ears = &regions(model).ears;
-        SkinMaps {
-            mottle: map(&|p| 1.0 + 0.06 * (fbm(p * 40.0) - 0.5)),
-            cheek: map(&|p| blob(Vec2::new(p.x.abs(), p.y), Vec2::new(0.38, 6.95), Vec2::new(0.14, 0.12))),
-            oily: map(&|p| blob(Vec2::new(p.x, p.y), Vec2::new(0.0, 7.3), Vec2::new(0.12, 0.7))),
-            beard: map(&|p| beard_mask(p) * identity.stubble),
-            hair: skin.iter().zip(ears).map(|(&p, &e)| hair_mask(p, identity.hairline) * (1.0 - e)).collect(),
-        }
+        let regions = regions(model);
+        let vertices = skin
+            .iter()
+            .enumerate()
+            .map(|(i, &p)| {
+                SkinVertex {
+                    mottle: 1.0 + 0.06 * (fbm(p * 40.0) - 0.5),
+                    cheek: blob(Vec2::new(p.x.abs(), p.y), Vec2::new(0.38, 6.95), Vec2::new(0.14, 0.12)),
+                    oily: blob(Vec2::new(p.x, p.y), Vec2::new(0.0, 7.3), Vec2::new(0.12, 0.7)),
+                    beard: beard_mask(p) * identity.stubble,
+                    hair: hair_mask(p, identity.hairline) * (1.0 - regions.ears[i]),
+                    lips: regions.lips[i],
+                    inside_mouth: regions.inside_mouth[i],
+                }
+                .to_array()
+            })
+            .collect();
+        SkinMaps { vertices }
+    }
+
+    /// The features at a fragment of the skin.
+    fn at(&self, f: &Fragment) -> SkinVertex {
+        let [a, b, c] = f.vertex.map(|v| self.vertices[v as usize]);
+        let w = f.barycentric;
+        SkinVertex::from_array(std::array::from_fn(|k| a[k] * w.x + b[k] * w.y + c[k] * w.z))
     }
 }
 
@@ -142,30 +195,35 @@ type ActivePatterns = Vec<(Relief, f32, f32)>;
 
 /// Shades the head for one frame.
 pub struct FaceShader<'a> {
-    maps: SkinMaps,
+    maps: Arc<SkinMaps>,
     /// Fraction of the key light reaching each vertex (1 everywhere without a shadow map).
     key_light: Vec<f32>,
     patterns: ActivePatterns,
+    /// The union of the active patterns' boxes: no relief outside it.
+    relief_bounds: [f32; 4],
     model: &'a FaceModel,
     posed: &'a Posed,
     identity: &'a Identity,
-    regions: &'static Regions,
     lights: [Light; 3],
     height: u32,
 }
 
 impl<'a> FaceShader<'a> {
     pub fn new(model: &'a FaceModel, posed: &'a Posed, identity: &'a Identity, height: u32) -> FaceShader<'a> {
-        let patterns = PATTERNS
+        let patterns: ActivePatterns = PATTERNS
             .iter()
             .filter_map(|(name, pattern)| {
                 let (l, r) = posed.appearance.get(*name).copied()?;
                 (l != 0.0 || r != 0.0).then_some((*pattern, l, r))
             })
             .collect();
-        let maps = SkinMaps::new(model, identity);
+        let relief_bounds = patterns.iter().fold([f32::INFINITY, f32::NEG_INFINITY, f32::INFINITY, f32::NEG_INFINITY], |u, (r, _, _)| {
+            let b = r.bounds;
+            [u[0].min(b[0]), u[1].max(b[1]), u[2].min(b[2]), u[3].max(b[3])]
+        });
+        let maps = SkinMaps::cached(model, identity);
         let key_light = vec![1.0; posed.positions.len()];
-        FaceShader { maps, key_light, patterns, model, posed, identity, regions: regions(model), lights: lights(), height }
+        FaceShader { maps, key_light, patterns, relief_bounds, model, posed, identity, lights: lights(), height }
     }
 
     /// Casts the key light's shadows from `shadow`, looked up once per vertex (offset along the
@@ -192,6 +250,11 @@ impl<'a> FaceShader<'a> {
 
     /// Total furrow/bulge height at a rest position (decimetres × pattern depth).
     fn relief(&self, p: Vec3) -> f32 {
+        let [x0, x1, y0, y1] = self.relief_bounds;
+        let x = p.x.abs();
+        if x < x0 || x > x1 || p.y < y0 || p.y > y1 {
+            return 0.0;
+        }
         let mirrored = Vec2::new(p.x.abs(), p.y);
         let l = Self::left_weight(p.x);
         self.patterns.iter().map(|(relief, left, right)| (left * l + right * (1.0 - l)) * relief.at(mirrored)).sum()
@@ -226,8 +289,9 @@ impl<'a> FaceShader<'a> {
     fn shade_skin(&self, f: &Fragment) -> Vec3 {
         let rest = self.rest(f);
         let identity = self.identity;
-        let lips = smoothstep(0.3, 0.7, self.interpolate(&self.regions.lips, f));
-        let mouth = self.interpolate(&self.regions.inside_mouth, f);
+        let painted = self.maps.at(f);
+        let lips = smoothstep(0.3, 0.7, painted.lips);
+        let mouth = painted.inside_mouth;
 
         // Surface relief: wrinkles and furrows as a bump map in rest space.
         let mut normal = f.normal;
@@ -242,17 +306,16 @@ impl<'a> FaceShader<'a> {
         }
 
         // Albedo: skin with mottling, cheeks, lips, stubble, brows, hair, mouth interior.
-        let maps = &self.maps;
-        let mut albedo = identity.skin * self.interpolate(&maps.mottle, f);
-        let cheek = self.interpolate(&maps.cheek, f);
+        let mut albedo = identity.skin * painted.mottle;
+        let cheek = painted.cheek;
         albedo = albedo.lerp(albedo * Vec3::new(1.08, 0.9, 0.88), 0.5 * cheek);
         albedo = albedo.lerp(identity.lips, lips);
-        let beard = self.interpolate(&maps.beard, f) * (1.0 - lips);
+        let beard = painted.beard * (1.0 - lips);
         if beard > 0.0 {
             let dots = smoothstep(0.4, 0.8, value_noise(rest * 260.0));
             albedo = albedo.lerp(identity.hair * 0.6 + identity.skin * 0.25, beard * (0.35 + 0.5 * dots));
         }
-        let hair = self.interpolate(&maps.hair, f);
+        let hair = painted.hair;
         if hair > 0.0 {
             let hair_albedo = identity.hair * (0.75 + 0.5 * strands(rest));
             albedo = albedo.lerp(hair_albedo, hair);
@@ -260,7 +323,7 @@ impl<'a> FaceShader<'a> {
         let brow = brow_mask(rest);
         albedo = albedo.lerp(identity.hair * 0.8, brow);
         albedo *= 1.0 - 0.15 * crease.min(1.0);
-        let oily = self.interpolate(&maps.oily, f);
+        let oily = painted.oily;
         let specular = (0.35 + 0.35 * oily) * (1.0 - hair) * (1.0 - 0.8 * brow) + 0.6 * lips;
         let shininess = 18.0 + 30.0 * lips;
         let mut colour = self.lit(f, normal, albedo, 0.35 * (1.0 - hair), specular, shininess);
@@ -373,6 +436,10 @@ fn brow_mask(rest: Vec3) -> f32 {
     let centre = 7.44 + 0.07 * (std::f32::consts::PI * t.powf(0.7)).sin() - 0.035 * t;
     let half = 0.030 * (1.0 - 0.55 * t) + 0.006;
     let across = (rest.y - centre) / half;
+    // Beyond 1.25 half-widths the body below is zero whatever the strand noise (at most 1).
+    if across.abs() > 1.25 {
+        return 0.0;
+    }
     // Strands lean outward and upward near the head of the brow, outward along the tail.
     let strand = value_noise(Vec3::new((x - rest.y * (0.9 - 0.8 * t)) * 300.0, rest.y * 20.0, 0.5));
     let body = 1.0 - smoothstep(0.55, 1.0 + 0.25 * strand, across.abs());
@@ -541,12 +608,19 @@ fn hash(x: i32, y: i32, z: i32) -> f32 {
     (h & 0x00ff_ffff) as f32 / 16_777_215.0
 }
 
+/// `x.floor() as i32` without a call into libm (the baseline x86-64 target has no rounding
+/// instruction); the same value for every `x` whose floor fits in an `i32`.
+#[inline]
+fn floor_i32(x: f32) -> i32 {
+    let t = x as i32;
+    t - i32::from((t as f32) > x)
+}
+
 /// Trilinear value noise in [0, 1].
 fn value_noise(p: Vec3) -> f32 {
-    let base = p.floor();
-    let t = p - base;
+    let (x, y, z) = (floor_i32(p.x), floor_i32(p.y), floor_i32(p.z));
+    let t = p - Vec3::new(x as f32, y as f32, z as f32);
     let s = t * t * (Vec3::splat(3.0) - 2.0 * t);
-    let (x, y, z) = (base.x as i32, base.y as i32, base.z as i32);
     let corner = |dx, dy, dz| hash(x + dx, y + dy, z + dz);
     let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
     let x00 = lerp(corner(0, 0, 0), corner(1, 0, 0), s.x);

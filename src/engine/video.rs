@@ -72,26 +72,22 @@ pub fn rgb_to_i420_bt601(image: &RgbImage) -> Vec<u8> {
     let mut out = vec![0u8; w * h * 3 / 2];
     let (luma, chroma) = out.split_at_mut(w * h);
     let (cb, cr) = chroma.split_at_mut(w * h / 4);
-    let px = |x: usize, y: usize| {
-        let i = (y * w + x) * 3;
-        (image.data[i] as i32, image.data[i + 1] as i32, image.data[i + 2] as i32)
-    };
-    for y in 0..h {
-        for x in 0..w {
-            let (r, g, b) = px(x, y);
-            luma[y * w + x] = (((66 * r + 129 * g + 25 * b + 128) >> 8) + 16) as u8;
+    let luma_of = |p: &[u8]| (((66 * i32::from(p[0]) + 129 * i32::from(p[1]) + 25 * i32::from(p[2]) + 128) >> 8) + 16) as u8;
+    for (y_row, rgb_row) in luma.chunks_exact_mut(w).zip(image.data.chunks_exact(w * 3)) {
+        for (y, p) in y_row.iter_mut().zip(rgb_row.chunks_exact(3)) {
+            *y = luma_of(p);
         }
     }
-    for cy in 0..h / 2 {
-        for cx in 0..w / 2 {
-            let (mut r, mut g, mut b) = (0, 0, 0);
-            for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
-                let p = px(2 * cx + dx, 2 * cy + dy);
-                (r, g, b) = (r + p.0, g + p.1, b + p.2);
-            }
-            let (r, g, b) = ((r + 2) >> 2, (g + 2) >> 2, (b + 2) >> 2);
-            cb[cy * (w / 2) + cx] = (((-38 * r - 74 * g + 112 * b + 128) >> 8) + 128).clamp(0, 255) as u8;
-            cr[cy * (w / 2) + cx] = (((112 * r - 94 * g - 18 * b + 128) >> 8) + 128).clamp(0, 255) as u8;
+    let rows = image.data.chunks_exact(w * 6);
+    for ((cb_row, cr_row), pair) in cb.chunks_exact_mut(w / 2).zip(cr.chunks_exact_mut(w / 2)).zip(rows) {
+        let (upper, lower) = pair.split_at(w * 3);
+        let blocks = upper.chunks_exact(6).zip(lower.chunks_exact(6));
+        for ((cb, cr), (top, bottom)) in cb_row.iter_mut().zip(cr_row.iter_mut()).zip(blocks) {
+            // The 2×2 mean, rounded.
+            let mean = |c: usize| (i32::from(top[c]) + i32::from(top[c + 3]) + i32::from(bottom[c]) + i32::from(bottom[c + 3]) + 2) >> 2;
+            let (r, g, b) = (mean(0), mean(1), mean(2));
+            *cb = (((-38 * r - 74 * g + 112 * b + 128) >> 8) + 128).clamp(0, 255) as u8;
+            *cr = (((112 * r - 94 * g - 18 * b + 128) >> 8) + 128).clamp(0, 255) as u8;
         }
     }
     out
