@@ -970,7 +970,7 @@ mod tests {
     impl Shader for TriangleShader {
         fn shade(&self, f: &Fragment) -> Vec3 {
             self.0.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-            if (f.triangle + u32::from(f.part)) % 2 == 0 { Vec3::X } else { Vec3::Y }
+            if (f.triangle + u32::from(f.part)).is_multiple_of(2) { Vec3::X } else { Vec3::Y }
         }
         fn background(&self, _: u32, _: u32) -> Vec3 {
             Vec3::ZERO
