@@ -421,7 +421,7 @@ fn render_timeline_video(
     let total = timeline.frame_count();
     let tty = std::io::IsTerminal::is_terminal(&std::io::stderr());
     let bytes = pool.install(|| {
-        stimuli::render_video(timeline, settings, frames, true, &mut |frame, image| {
+        stimuli::render_video(timeline, settings, frames, true, None, &mut |frame, image| {
             if tty {
                 eprint!("\rrendering frame {}/{total}", frame + 1);
             }

@@ -18,12 +18,15 @@
 //! An entry whose manifest row would be unchanged and whose media file still has the recorded
 //! sha256 is not rendered again.
 
+use std::collections::{BTreeSet, HashMap};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use rayon::prelude::*;
 use sha2::{Digest, Sha256};
 
+use super::frames::{FrameKey, SharedFrames};
 use super::manifest::{self, ManifestRow};
 use super::spec::{Content, Entry, SetSpec};
 use crate::engine::identity::IdentityTable;
@@ -224,6 +227,8 @@ pub fn build(spec: &SetSpec, out: &Path, options: &BuildOptions) -> Result<Build
     };
     let frames_rendered = AtomicUsize::new(0);
 
+    let frame_keys: Vec<BTreeSet<FrameKey>> = todo.iter().map(|&i| entry_frames(spec, &spec.entries[i])).collect::<Result<_, _>>()?;
+    let shared = SharedFrames::new(frame_keys, SHARED_FRAME_BYTES);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(options.jobs.unwrap_or(0))
         .build()
@@ -236,7 +241,7 @@ pub fn build(spec: &SetSpec, out: &Path, options: &BuildOptions) -> Result<Build
             .par_iter()
             .map(|&i| {
                 let entry = &spec.entries[i];
-                let result = render_entry(spec, entry, &ids[i], out, &|n| {
+                let result = render_entry(spec, entry, &ids[i], out, &shared, &|n| {
                     bar.inc(n as u64);
                     frames_rendered.fetch_add(n, Ordering::Relaxed);
                 });
@@ -261,6 +266,22 @@ pub fn build(spec: &SetSpec, out: &Path, options: &BuildOptions) -> Result<Build
     })
 }
 
+/// The most bytes of frames a build keeps for reuse by later entries (about 700 frames of
+/// 485×480).
+const SHARED_FRAME_BYTES: usize = 512 << 20;
+
+/// The distinct frames an entry shows.
+fn entry_frames(spec: &SetSpec, entry: &Entry) -> Result<BTreeSet<FrameKey>, BuildError> {
+    let key = |expression: &crate::facs::Expression| FrameKey::new(&entry.identity, spec.size, expression);
+    match &entry.content {
+        Content::Image(expression) => Ok(BTreeSet::from([key(expression)])),
+        Content::Video { timeline, .. } => (0..timeline.frame_count())
+            .map(|f| timeline.frame_expression(f, Catalog::built_in()).map(|e| key(&e)))
+            .collect::<Result<_, _>>()
+            .map_err(|e| BuildError::Render { entry: entry.origin.clone(), message: e.to_string() }),
+    }
+}
+
 fn planned_frames(entry: &Entry) -> usize {
     match &entry.content {
         Content::Image(_) => 1,
@@ -269,13 +290,29 @@ fn planned_frames(entry: &Entry) -> usize {
 }
 
 /// Renders one entry's files and returns the sha256 of its media file.
-fn render_entry(spec: &SetSpec, entry: &Entry, id: &str, out: &Path, progress: &dyn Fn(usize)) -> Result<String, BuildError> {
+fn render_entry(
+    spec: &SetSpec,
+    entry: &Entry,
+    id: &str,
+    out: &Path,
+    shared: &SharedFrames,
+    progress: &dyn Fn(usize),
+) -> Result<String, BuildError> {
     let fail = |message: String| BuildError::Render { entry: entry.origin.clone(), message };
     let identity = IdentityTable::built_in().get(&entry.identity).map_err(|e| fail(e.to_string()))?;
     let settings = FrameSettings { width: spec.size.0, height: spec.size.1, threads: Some(1) };
     match &entry.content {
         Content::Image(expression) => {
-            let image = engine::render_still(expression, identity, settings).map_err(|e| fail(e.to_string()))?;
+            let key = FrameKey::new(&entry.identity, spec.size, expression);
+            let image = match shared.get(&key) {
+                Some(image) => image,
+                None => {
+                    let image = Arc::new(engine::render_still(expression, identity, settings).map_err(|e| fail(e.to_string()))?);
+                    shared.offer(&key, &image);
+                    image
+                }
+            };
+            shared.release([&key]);
             let bytes = image.encode_png();
             write_atomic(&out.join("media").join(format!("{id}.png")), &bytes)?;
             progress(1);
@@ -284,7 +321,7 @@ fn render_entry(spec: &SetSpec, entry: &Entry, id: &str, out: &Path, progress: &
         Content::Video { timeline, .. } => {
             let frames_dir = spec.png_frames.then(|| out.join("frames").join(id));
             let mut poster = None;
-            let bytes = render_video(timeline, settings, frames_dir.as_deref(), false, &mut |frame, image| {
+            let bytes = render_video(timeline, settings, frames_dir.as_deref(), false, Some(shared), &mut |frame, image| {
                 if frame == 0 {
                     poster = Some(image.encode_png());
                 }
@@ -317,13 +354,16 @@ pub enum VideoBuildError {
 }
 
 /// Renders every frame of `timeline` (on the calling thread, or in parallel over frames with
-/// `parallel`; each distinct expression is rendered once), encodes the MP4, and optionally writes the PNG frames into
-/// `frames_dir` (through a temporary directory renamed into place). `on_frame` sees each frame.
+/// `parallel`; each distinct expression is rendered once, or taken from `shared` when another
+/// entry of the build has rendered it), encodes the MP4, and optionally writes the PNG frames
+/// into `frames_dir` (through a temporary directory renamed into place). `on_frame` sees each
+/// frame.
 pub fn render_video(
     timeline: &Timeline,
     settings: FrameSettings,
     frames_dir: Option<&Path>,
     parallel: bool,
+    shared: Option<&SharedFrames>,
     on_frame: &mut dyn FnMut(usize, &RgbImage),
 ) -> Result<Vec<u8>, VideoBuildError> {
     let catalog = Catalog::built_in();
@@ -342,7 +382,7 @@ pub fn render_video(
     // through the rising ramp's values (see `timeline::RAMP_STEP`). Rendered frames are kept
     // for reuse up to a memory budget. In parallel mode, chunks of frames render at once.
     const CACHE_BYTES: usize = 96 << 20;
-    let mut cache: std::collections::HashMap<String, std::sync::Arc<RgbImage>> = std::collections::HashMap::new();
+    let mut cache: HashMap<String, Arc<RgbImage>> = HashMap::new();
     let mut cached_bytes = 0usize;
     let chunk = if parallel { 4 * rayon::current_num_threads() } else { 1 };
     let frame_settings = FrameSettings { threads: if parallel { Some(1) } else { settings.threads }, ..settings };
@@ -355,16 +395,23 @@ pub fn render_video(
                 fresh.push(f);
             }
         }
-        let render = |&f: &usize| engine::render_still(&expressions[f], identity, frame_settings).map(|image| (f, image));
-        let rendered: Vec<(usize, RgbImage)> = if parallel {
+        let frame_key = |f: usize| FrameKey::new(&timeline.identity, (settings.width, settings.height), &keys[f]);
+        let render = |&f: &usize| -> Result<(usize, Arc<RgbImage>), engine::EngineError> {
+            if let Some(image) = shared.and_then(|s| s.get(&frame_key(f))) {
+                return Ok((f, image));
+            }
+            let image = Arc::new(engine::render_still(&expressions[f], identity, frame_settings)?);
+            if let Some(shared) = shared {
+                shared.offer(&frame_key(f), &image);
+            }
+            Ok((f, image))
+        };
+        let rendered: Vec<(usize, Arc<RgbImage>)> = if parallel {
             fresh.par_iter().map(render).collect::<Result<_, _>>()?
         } else {
             fresh.iter().map(render).collect::<Result<_, _>>()?
         };
-        let mut local: std::collections::HashMap<&str, std::sync::Arc<RgbImage>> = std::collections::HashMap::new();
-        for (f, image) in rendered {
-            local.insert(&keys[f], std::sync::Arc::new(image));
-        }
+        let local: HashMap<&str, Arc<RgbImage>> = rendered.into_iter().map(|(f, image)| (keys[f].as_str(), image)).collect();
         for (frame, key) in keys.iter().enumerate().take(end).skip(start) {
             let key = key.as_str();
             let image = local.get(key).or_else(|| cache.get(key)).cloned().expect("every frame is rendered or cached");
@@ -381,6 +428,11 @@ pub fn render_video(
                 cache.insert(key.to_string(), image);
             }
         }
+    }
+    if let Some(shared) = shared {
+        let distinct: BTreeSet<&String> = keys.iter().collect();
+        let done: Vec<FrameKey> = distinct.into_iter().map(|k| FrameKey::new(&timeline.identity, (settings.width, settings.height), k)).collect();
+        shared.release(&done);
     }
     let bytes = encoder.finish()?;
     if let (Some(partial), Some(dir)) = (&partial_dir, frames_dir) {

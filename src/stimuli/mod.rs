@@ -1,5 +1,6 @@
 //! Stimulus sets: specifications (TOML, `stimuli/sets/`), their validation and expansion into
-//! entries ([`spec`]), the build that renders them with opaque file names ([`build`]), and the
+//! entries ([`spec`]), the build that renders them with opaque file names ([`build`]; frames that several entries
+//! show are rendered once, [`frames`]), and the
 //! manifest and per-frame ground truth written beside them ([`manifest`]).
 //!
 //! In: a spec file. Out: a directory of media files plus `manifest.csv`/`manifest.json`.
@@ -8,6 +9,7 @@
 //! depends on what a stimulus shows. Absent: studies, participants, HTTP.
 
 pub mod build;
+pub mod frames;
 pub mod manifest;
 pub mod spec;
 
