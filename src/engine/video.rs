@@ -102,6 +102,8 @@ pub struct Mp4Encoder {
     height: u32,
     frames: usize,
     annexb: Vec<u8>,
+    /// The last frame pushed (padded RGB) and its I420 planes: a held frame is converted once.
+    last: Option<(Vec<u8>, Vec<u8>)>,
 }
 
 impl Mp4Encoder {
@@ -125,7 +127,7 @@ impl Mp4Encoder {
             .with_fast_start(true)
             .build()
             .map_err(|e| VideoError::Muxer(e.to_string()))?;
-        Ok(Mp4Encoder { encoder, muxer, fps, width, height, frames: 0, annexb: Vec::new() })
+        Ok(Mp4Encoder { encoder, muxer, fps, width, height, frames: 0, annexb: Vec::new(), last: None })
     }
 
     /// The encoded (even) size.
@@ -145,7 +147,12 @@ impl Mp4Encoder {
                 want_h: self.height,
             });
         }
-        let yuv = YUVBuffer::from_vec(rgb_to_i420_bt601(&padded), self.width as usize, self.height as usize);
+        let i420 = match self.last.take() {
+            Some((rgb, i420)) if rgb == padded.data => i420,
+            _ => rgb_to_i420_bt601(&padded),
+        };
+        let yuv = YUVBuffer::from_vec(i420.clone(), self.width as usize, self.height as usize);
+        self.last = Some((padded.data, i420));
         let timestamp = openh264::Timestamp::from_millis(self.frames as u64 * 1000 / self.fps as u64);
         let stream = self.encoder.encode_at(&yuv, timestamp).map_err(|e| VideoError::Encoder(e.to_string()))?;
         let keyframe = matches!(stream.frame_type(), FrameType::IDR | FrameType::I);
