@@ -471,20 +471,10 @@ pub fn analyze(manifest: &Manifest, responses: &Responses, catalog: &Catalog, op
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::facs::EmotionTable;
 
     fn run(manifest: &str, responses: &str, options: CodingOptions) -> CodingReport {
-        let (catalog, emotions) = (Catalog::built_in(), EmotionTable::built_in());
-        let m = Manifest::from_csv("m.csv", &format!("stimulus_id,media,identity,expression,emotion,intensity\n{manifest}"), catalog, &emotions).unwrap();
-        let r = Responses::from_csv(
-            "r.csv",
-            &format!("participant_id,group,stimulus_id,trial,measure,value,rt_ms\n{responses}"),
-            &m,
-            catalog,
-            &emotions,
-        )
-        .unwrap();
-        analyze(&m, &r, catalog, options).unwrap()
+        let (m, r) = crate::analysis::fixture(manifest, responses);
+        analyze(&m, &r, Catalog::built_in(), options).unwrap()
     }
 
     fn row(r: &CodingReport, au: u16) -> &AuRow {

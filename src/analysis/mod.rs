@@ -36,3 +36,26 @@ pub mod responses;
 pub mod stats;
 
 pub use input::{InputError, is_parquet};
+
+/// Test inputs written inline: manifest and response rows under their standard headers.
+#[cfg(test)]
+pub(crate) fn fixture(manifest_rows: &str, response_rows: &str) -> (manifest::Manifest, responses::Responses) {
+    use crate::facs::{Catalog, EmotionTable};
+    let (catalog, emotions) = (Catalog::built_in(), EmotionTable::built_in());
+    let manifest = manifest::Manifest::from_csv(
+        "m.csv",
+        &format!("stimulus_id,media,identity,expression,emotion,intensity\n{manifest_rows}"),
+        catalog,
+        &emotions,
+    )
+    .expect("a valid test manifest");
+    let responses = responses::Responses::from_csv(
+        "r.csv",
+        &format!("participant_id,group,stimulus_id,trial,measure,value,rt_ms\n{response_rows}"),
+        &manifest,
+        catalog,
+        &emotions,
+    )
+    .expect("valid test responses");
+    (manifest, responses)
+}

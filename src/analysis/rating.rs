@@ -517,19 +517,9 @@ pub fn analyze(manifest: &Manifest, responses: &Responses) -> Option<RatingRepor
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::facs::{Catalog, EmotionTable};
 
     fn run(manifest: &str, responses: &str) -> RatingReport {
-        let (catalog, emotions) = (Catalog::built_in(), EmotionTable::built_in());
-        let m = Manifest::from_csv("m.csv", &format!("stimulus_id,media,identity,expression,emotion,intensity\n{manifest}"), catalog, &emotions).unwrap();
-        let r = Responses::from_csv(
-            "r.csv",
-            &format!("participant_id,group,stimulus_id,trial,measure,value,rt_ms\n{responses}"),
-            &m,
-            catalog,
-            &emotions,
-        )
-        .unwrap();
+        let (m, r) = crate::analysis::fixture(manifest, responses);
         analyze(&m, &r).unwrap()
     }
 
