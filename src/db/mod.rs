@@ -3,16 +3,21 @@
 //! In: study designs, participations, saves and admin actions from the web layer. Out: typed
 //! rows and streams for pages and exports. Invariants (design.md §6.9): WAL journal, foreign keys
 //! on, a busy timeout; every read-then-write runs in one `BEGIN IMMEDIATE` transaction on the
-//! single writer connection, so balance counts and idempotency checks never race; readers use
-//! their own pool and never block the writer. Times are Unix milliseconds.
+//! single writer connection, so balance counts and idempotency checks never race; participant
+//! writes (starts, consent, demographics, saves, withdrawals) go through the writer task
+//! ([`writer`]), which stores whatever is waiting in one such transaction; readers use their own
+//! pool and never block the writer. Times are Unix milliseconds.
 
 pub mod admin;
 pub mod export;
 pub mod participants;
+mod recent;
 pub mod studies;
+mod writer;
 
 use std::path::Path;
 use std::str::FromStr;
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use sqlx::sqlite::{SqliteConnectOptions, SqliteJournalMode, SqlitePool, SqlitePoolOptions, SqliteSynchronous};
@@ -42,9 +47,15 @@ pub struct Db {
     writer: SqlitePool,
     /// Several connections for pages, progress and exports.
     reader: SqlitePool,
-    /// Trial saves, stored by the writer task in group commits.
-    saves: tokio::sync::mpsc::Sender<participants::PendingSave>,
+    /// Participant writes, stored by the writer task in group commits.
+    writes: tokio::sync::mpsc::Sender<writer::Write>,
+    /// Which study each recently seen participation token belongs to (this never changes).
+    studies_of_tokens: Arc<Mutex<recent::Recent<String, i64>>>,
 }
+
+/// How many participation tokens [`Db::participation_study`] keeps in memory (per generation of
+/// [`recent::Recent`]).
+const TOKENS_KEPT: usize = 32_768;
 
 static MIGRATOR: sqlx::migrate::Migrator = sqlx::migrate!("./migrations");
 
@@ -61,9 +72,9 @@ impl Db {
         let writer = SqlitePoolOptions::new().max_connections(1).test_before_acquire(false).connect_with(options.clone()).await?;
         MIGRATOR.run(&writer).await?;
         let reader = SqlitePoolOptions::new().max_connections(4).test_before_acquire(false).connect_with(options.read_only(true)).await?;
-        let (saves, queue) = tokio::sync::mpsc::channel(4096);
-        tokio::spawn(participants::write_saves(writer.clone(), queue));
-        Ok(Db { writer, reader, saves })
+        let (writes, queue) = tokio::sync::mpsc::channel(writer::QUEUE);
+        tokio::spawn(writer::write_batches(writer.clone(), queue));
+        Ok(Db { writer, reader, writes, studies_of_tokens: Arc::new(Mutex::new(recent::Recent::new(TOKENS_KEPT))) })
     }
 
     /// Writes a consistent copy of the database to `path` (`VACUUM INTO`, safe while serving).
@@ -75,6 +86,14 @@ impl Db {
     pub async fn close(&self) {
         self.writer.close().await;
         self.reader.close().await;
+    }
+
+    /// Hands `request` to the writer task and waits until its batch is committed.
+    async fn write(&self, request: writer::Request) -> Result<writer::Written, DbError> {
+        let closing = || DbError::Unavailable("the database is closing".into());
+        let (reply, written) = tokio::sync::oneshot::channel();
+        self.writes.send(writer::Write { request, reply }).await.map_err(|_| closing())?;
+        written.await.map_err(|_| closing())?
     }
 
     /// Starts a read-then-write transaction that holds the write lock from its first statement.

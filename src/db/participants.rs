@@ -1,11 +1,17 @@
 //! Participations: start (balanced assignment), consent, demographics, per-trial saves,
 //! withdrawal, exclusion and the reaper that abandons expired reservations.
 //!
-//! Every function that reads and then writes runs in one `BEGIN IMMEDIATE` transaction, and
-//! every state change is written to `session_events` with its reason.
+//! Participant writes are requests to the writer task (`super::writer`), which runs the `…_in`
+//! functions here inside its batch transaction; the admin's writes and the reaper run their own
+//! `BEGIN IMMEDIATE` transactions. Every state change is written to `session_events` with its
+//! reason.
+
+use std::collections::HashMap;
+use std::collections::hash_map::Entry;
 
 use sqlx::{Row, SqliteConnection};
 
+use super::writer::{Request, Written};
 use super::{Db, DbError, now_ms, secret_token};
 use crate::study::assign::{self, PlannedTrial, TrialKind};
 use crate::study::task::passes_check;
@@ -105,11 +111,14 @@ async fn log_transition(conn: &mut SqliteConnection, participant: i64, from: Opt
     Ok(())
 }
 
+/// Refuses the moves the state machine does not have.
+fn may_become(from: SessionState, to: SessionState) -> Result<(), DbError> {
+    if from.can_become(to) { Ok(()) } else { Err(DbError::Conflict(format!("this participation is {from} and cannot become {to}"))) }
+}
+
 /// Moves a participation along the state machine (refusing moves the machine does not have).
 async fn transition(conn: &mut SqliteConnection, id: i64, from: SessionState, to: SessionState, reason: &str) -> Result<(), DbError> {
-    if !from.can_become(to) {
-        return Err(DbError::Conflict(format!("this participation is {from} and cannot become {to}")));
-    }
+    may_become(from, to)?;
     sqlx::query("UPDATE participants SET state = ?, updated_at = ? WHERE id = ?").bind(to.as_str()).bind(now_ms()).bind(id).execute(&mut *conn).await?;
     log_transition(conn, id, Some(from), to, reason).await
 }
@@ -121,65 +130,28 @@ async fn load_by_token(conn: &mut SqliteConnection, token: &str) -> Result<Parti
 
 impl Db {
     /// Starts a participation for `worker_id` (or finds the one it has): assigns the balanced
-    /// share of stimuli and the seeded trial plan in one immediate transaction.
+    /// share of stimuli and the seeded trial plan, stored by the writer task together with the
+    /// other writes waiting.
     pub async fn start_participation(&self, study_id: i64, design: &StudyDesign, worker_id: &str, platform_params: &str) -> Result<Started, DbError> {
-        let mut tx = self.immediate().await?;
-        let now = now_ms();
-        let existing = sqlx::query("SELECT token FROM participants WHERE study_id = ? AND worker_id = ?")
-            .bind(study_id)
-            .bind(worker_id)
-            .fetch_optional(&mut *tx)
-            .await?;
-        if let Some(row) = existing {
-            return Ok(Started::Existing(row.get(0)));
+        let request = StartRequest::new(study_id, design, worker_id, platform_params);
+        match self.write(Request::Start(request)).await? {
+            Written::Started(started) => Ok(started),
+            other => Err(other.unexpected()),
         }
-        // Load = main trials of completed participations plus those of unexpired reservations.
-        let loads: Vec<(String, usize)> = sqlx::query(
-            "SELECT s.stimulus_id, COUNT(p.id) FROM stimuli s
-             LEFT JOIN trials t ON t.stimulus_id = s.stimulus_id AND t.kind = 'trial'
-             LEFT JOIN participants p ON p.id = t.participant_id AND p.study_id = s.study_id AND p.excluded = 0
-                 AND (p.state = 'completed' OR (p.state IN ('reserved', 'active') AND p.expires_at > ?2))
-             WHERE s.study_id = ?1 GROUP BY s.stimulus_id ORDER BY s.stimulus_id",
-        )
-        .bind(study_id)
-        .bind(now)
-        .fetch_all(&mut *tx)
-        .await?
-        .into_iter()
-        .map(|r| (r.get::<String, _>(0), r.get::<i64, _>(1) as usize))
-        .collect();
-        let seed = u64::from_str_radix(&secret_token()[..16], 16).unwrap_or(0) >> 1;
-        let share = match assign::choose_stimuli(&loads, design.trials_per_participant, design.ratings_per_stimulus, seed) {
-            Ok(share) => share,
-            Err(_) => return Ok(Started::Full),
-        };
-        let pool: Vec<String> = loads.iter().map(|(id, _)| id.clone()).collect();
-        let plan = assign::plan_trials(&share, &pool, design.practice_trials, design.attention.checks.len(), seed);
-        let token = secret_token();
-        let public_id = format!("p{}", &secret_token()[..12]);
-        let expires = now + i64::from(design.reservation_minutes) * 60_000;
-        let id: i64 = sqlx::query(
-            "INSERT INTO participants (study_id, token, public_id, worker_id, platform, platform_params, grp, seed, state, created_at, updated_at, expires_at)
-             VALUES (?, ?, ?, ?, ?, ?, ?, ?, 'reserved', ?, ?, ?) RETURNING id",
-        )
-        .bind(study_id)
-        .bind(&token)
-        .bind(&public_id)
-        .bind(worker_id)
-        .bind(design.recruitment.platform.as_str())
-        .bind(platform_params)
-        .bind(&design.group)
-        .bind(seed as i64)
-        .bind(now)
-        .bind(now)
-        .bind(expires)
-        .fetch_one(&mut *tx)
-        .await?
-        .get(0);
-        insert_plan(&mut tx, id, &plan).await?;
-        log_transition(&mut tx, id, None, SessionState::Reserved, "started").await?;
-        tx.commit().await?;
-        Ok(Started::New(token))
+    }
+
+    /// The id of the study a participation token belongs to, from memory once seen (a
+    /// participation never changes study), so a save needs no read before the writer's.
+    pub async fn participation_study(&self, token: &str) -> Result<Option<i64>, DbError> {
+        let remembered = self.studies_of_tokens.lock().ok().and_then(|mut known| known.get(token));
+        if remembered.is_some() {
+            return Ok(remembered);
+        }
+        let study: Option<i64> = sqlx::query_scalar("SELECT study_id FROM participants WHERE token = ?").bind(token).fetch_optional(&self.reader).await?;
+        if let (Some(study), Ok(mut known)) = (study, self.studies_of_tokens.lock()) {
+            known.insert(token.to_string(), study);
+        }
+        Ok(study)
     }
 
     pub async fn participation(&self, token: &str) -> Result<Option<Participation>, DbError> {
@@ -213,33 +185,11 @@ impl Db {
 
     /// Records consent (with the consent text's hash): reserved → active.
     pub async fn give_consent(&self, token: &str, consent_sha256: &str) -> Result<(), DbError> {
-        let mut tx = self.immediate().await?;
-        let p = load_by_token(&mut tx, token).await?;
-        if p.consented {
-            return Ok(());
-        }
-        sqlx::query("UPDATE participants SET consent_sha256 = ? WHERE id = ?").bind(consent_sha256).bind(p.id).execute(&mut *tx).await?;
-        transition(&mut tx, p.id, p.state, SessionState::Active, "consent given").await?;
-        tx.commit().await?;
-        Ok(())
+        self.record(Request::Consent { token: token.to_string(), consent_sha256: consent_sha256.to_string() }).await
     }
 
-    pub async fn save_demographics(&self, token: &str, d: &Demographics) -> Result<(), DbError> {
-        let mut tx = self.immediate().await?;
-        let p = load_by_token(&mut tx, token).await?;
-        if !p.state.is_open() {
-            return Err(DbError::Conflict(format!("this participation is {}", p.state)));
-        }
-        sqlx::query("INSERT OR REPLACE INTO demographics (participant_id, age, gender, ethnicity, education) VALUES (?, ?, ?, ?, ?)")
-            .bind(p.id)
-            .bind(d.age)
-            .bind(&d.gender)
-            .bind(&d.ethnicity)
-            .bind(&d.education)
-            .execute(&mut *tx)
-            .await?;
-        tx.commit().await?;
-        Ok(())
+    pub async fn save_demographics(&self, token: &str, demographics: &Demographics) -> Result<(), DbError> {
+        self.record(Request::Demographics { token: token.to_string(), demographics: demographics.clone() }).await
     }
 
     /// Saves the answer to trial `position` exactly once. A repeated idempotency key returns
@@ -247,29 +197,24 @@ impl Db {
     /// answered trial under a new key is a conflict. Completes the participation with its last
     /// trial, or screens it out when attention checks fail too often.
     pub async fn save_response(&self, token: &str, position: i64, key: &str, answer: &Answer, timing: SaveTiming, design: &StudyDesign) -> Result<SaveOutcome, DbError> {
-        let (reply, outcome) = tokio::sync::oneshot::channel();
-        let save = PendingSave {
-            token: token.to_string(),
-            position,
-            key: key.to_string(),
-            answer: answer.clone(),
-            timing,
-            reservation_minutes: design.reservation_minutes,
-            checks: design.attention.checks.clone(),
-            max_failures: design.attention.max_failures,
-            reply,
-        };
-        self.saves.send(save).await.map_err(|_| DbError::Unavailable("the database is closing".into()))?;
-        outcome.await.map_err(|_| DbError::Unavailable("the database is closing".into()))?
+        let save = SaveRequest::new(token, position, key, answer, timing, design);
+        match self.write(Request::Save(save)).await? {
+            Written::Saved(outcome) => Ok(outcome),
+            other => Err(other.unexpected()),
+        }
     }
 
     /// The participant withdraws: their answers stay stored but leave every export.
     pub async fn withdraw(&self, token: &str) -> Result<(), DbError> {
-        let mut tx = self.immediate().await?;
-        let p = load_by_token(&mut tx, token).await?;
-        transition(&mut tx, p.id, p.state, SessionState::Withdrawn, "withdrawn by the participant").await?;
-        tx.commit().await?;
-        Ok(())
+        self.record(Request::Withdraw { token: token.to_string() }).await
+    }
+
+    /// Consent, demographics or a withdrawal, through the writer task.
+    async fn record(&self, request: Request) -> Result<(), DbError> {
+        match self.write(request).await? {
+            Written::Recorded => Ok(()),
+            other => Err(other.unexpected()),
+        }
     }
 
     /// Marks or unmarks a participation as excluded from analyses (with the reason).
@@ -365,9 +310,89 @@ async fn insert_plan(conn: &mut SqliteConnection, participant: i64, plan: &[Plan
     Ok(())
 }
 
-/// A save waiting for the writer task.
+/// The load of each stimulus of a study (main trials of completed participations plus those
+/// of unexpired reservations), counted once per batch, in stimulus id order, and kept current
+/// by adding the share of each start in the batch.
+#[derive(Debug, Default)]
+pub(crate) struct StimulusLoads {
+    by_study: HashMap<i64, Vec<(String, usize)>>,
+}
+
+impl StimulusLoads {
+    /// The loads of `study_id`'s stimuli, counted at `now` the first time they are asked for.
+    pub(crate) async fn of(&mut self, conn: &mut SqliteConnection, study_id: i64, now: i64) -> Result<&[(String, usize)], DbError> {
+        Ok(match self.by_study.entry(study_id) {
+            Entry::Occupied(known) => known.into_mut(),
+            Entry::Vacant(unknown) => unknown.insert(count_loads(conn, study_id, now).await?),
+        })
+    }
+
+    /// Counts again at the next start (a participation stopped counting).
+    pub(crate) fn forget(&mut self) {
+        self.by_study.clear();
+    }
+
+    /// Counts a new participation's main stimuli.
+    pub(crate) fn add(&mut self, study_id: i64, share: &[String]) {
+        let Some(loads) = self.by_study.get_mut(&study_id) else { return };
+        for stimulus in share {
+            if let Ok(at) = loads.binary_search_by(|(id, _)| id.as_str().cmp(stimulus)) {
+                loads[at].1 += 1;
+            }
+        }
+    }
+}
+
+async fn count_loads(conn: &mut SqliteConnection, study_id: i64, now: i64) -> Result<Vec<(String, usize)>, DbError> {
+    let rows = sqlx::query(
+        "SELECT s.stimulus_id, COUNT(p.id) FROM stimuli s
+         LEFT JOIN trials t ON t.stimulus_id = s.stimulus_id AND t.kind = 'trial'
+         LEFT JOIN participants p ON p.id = t.participant_id AND p.study_id = s.study_id AND p.excluded = 0
+             AND (p.state = 'completed' OR (p.state IN ('reserved', 'active') AND p.expires_at > ?2))
+         WHERE s.study_id = ?1 GROUP BY s.stimulus_id ORDER BY s.stimulus_id",
+    )
+    .bind(study_id)
+    .bind(now)
+    .fetch_all(&mut *conn)
+    .await?;
+    Ok(rows.into_iter().map(|r| (r.get::<String, _>(0), r.get::<i64, _>(1) as usize)).collect())
+}
+
+/// A start, as the writer task runs it (the design's facts it needs).
 #[derive(Debug)]
-pub(crate) struct PendingSave {
+pub(crate) struct StartRequest {
+    study_id: i64,
+    worker_id: String,
+    platform: &'static str,
+    platform_params: String,
+    group: String,
+    trials_per_participant: usize,
+    ratings_per_stimulus: usize,
+    practice_trials: usize,
+    attention_checks: usize,
+    reservation_minutes: u32,
+}
+
+impl StartRequest {
+    pub(crate) fn new(study_id: i64, design: &StudyDesign, worker_id: &str, platform_params: &str) -> StartRequest {
+        StartRequest {
+            study_id,
+            worker_id: worker_id.to_string(),
+            platform: design.recruitment.platform.as_str(),
+            platform_params: platform_params.to_string(),
+            group: design.group.clone(),
+            trials_per_participant: design.trials_per_participant,
+            ratings_per_stimulus: design.ratings_per_stimulus,
+            practice_trials: design.practice_trials,
+            attention_checks: design.attention.checks.len(),
+            reservation_minutes: design.reservation_minutes,
+        }
+    }
+}
+
+/// A trial save, as the writer task runs it.
+#[derive(Debug)]
+pub(crate) struct SaveRequest {
     token: String,
     position: i64,
     key: String,
@@ -376,63 +401,120 @@ pub(crate) struct PendingSave {
     reservation_minutes: u32,
     checks: Vec<crate::study::design::AttentionCheck>,
     max_failures: u32,
-    reply: tokio::sync::oneshot::Sender<Result<SaveOutcome, DbError>>,
 }
 
-/// Most saves committed together.
-const BATCH: usize = 128;
-
-/// The writer task: takes the saves that are waiting (up to [`BATCH`]) and stores them in one
-/// `BEGIN IMMEDIATE` transaction (group commit), then answers each. A save that fails its
-/// checks writes nothing and gets its own error; an SQL error rolls the whole batch back and
-/// every save in it gets the error (the clients retry with the same keys).
-pub(crate) async fn write_saves(writer: sqlx::SqlitePool, mut saves: tokio::sync::mpsc::Receiver<PendingSave>) {
-    while let Some(first) = saves.recv().await {
-        let mut batch = vec![first];
-        while batch.len() < BATCH {
-            match saves.try_recv() {
-                Ok(save) => batch.push(save),
-                Err(_) => break,
-            }
-        }
-        let outcomes = async {
-            let mut tx = writer.begin_with("BEGIN IMMEDIATE").await?;
-            let mut outcomes = Vec::with_capacity(batch.len());
-            for save in &batch {
-                match save_in(&mut tx, save).await {
-                    Err(DbError::Sql(e)) => return Err(DbError::Sql(e)),
-                    other => outcomes.push(other),
-                }
-            }
-            tx.commit().await?;
-            Ok::<_, DbError>(outcomes)
-        }
-        .await;
-        match outcomes {
-            Ok(outcomes) => {
-                for (save, outcome) in batch.into_iter().zip(outcomes) {
-                    let _ = save.reply.send(outcome);
-                }
-            }
-            Err(e) => {
-                let message = e.to_string();
-                for save in batch {
-                    let _ = save.reply.send(Err(DbError::Unavailable(message.clone())));
-                }
-            }
+impl SaveRequest {
+    pub(crate) fn new(token: &str, position: i64, key: &str, answer: &Answer, timing: SaveTiming, design: &StudyDesign) -> SaveRequest {
+        SaveRequest {
+            token: token.to_string(),
+            position,
+            key: key.to_string(),
+            answer: answer.clone(),
+            timing,
+            reservation_minutes: design.reservation_minutes,
+            checks: design.attention.checks.clone(),
+            max_failures: design.attention.max_failures,
         }
     }
 }
 
+/// One start inside the writer's transaction: finds the worker's participation, or assigns the
+/// least-loaded stimuli (counting the starts before it in the batch) and stores the plan.
+pub(crate) async fn start_in(conn: &mut SqliteConnection, start: &StartRequest, loads: &mut StimulusLoads) -> Result<Started, DbError> {
+    let now = now_ms();
+    let existing = sqlx::query("SELECT token FROM participants WHERE study_id = ? AND worker_id = ?")
+        .bind(start.study_id)
+        .bind(&start.worker_id)
+        .fetch_optional(&mut *conn)
+        .await?;
+    if let Some(row) = existing {
+        return Ok(Started::Existing(row.get(0)));
+    }
+    let study_loads = loads.of(conn, start.study_id, now).await?;
+    let seed = u64::from_str_radix(&secret_token()[..16], 16).unwrap_or(0) >> 1;
+    let Ok(share) = assign::choose_stimuli(study_loads, start.trials_per_participant, start.ratings_per_stimulus, seed) else {
+        return Ok(Started::Full);
+    };
+    let pool: Vec<String> = study_loads.iter().map(|(id, _)| id.clone()).collect();
+    let plan = assign::plan_trials(&share, &pool, start.practice_trials, start.attention_checks, seed);
+    let token = secret_token();
+    let public_id = format!("p{}", &secret_token()[..12]);
+    let expires = now + i64::from(start.reservation_minutes) * 60_000;
+    let id: i64 = sqlx::query(
+        "INSERT INTO participants (study_id, token, public_id, worker_id, platform, platform_params, grp, seed, state, created_at, updated_at, expires_at)
+         VALUES (?, ?, ?, ?, ?, ?, ?, ?, 'reserved', ?, ?, ?) RETURNING id",
+    )
+    .bind(start.study_id)
+    .bind(&token)
+    .bind(&public_id)
+    .bind(&start.worker_id)
+    .bind(start.platform)
+    .bind(&start.platform_params)
+    .bind(&start.group)
+    .bind(seed as i64)
+    .bind(now)
+    .bind(now)
+    .bind(expires)
+    .fetch_one(&mut *conn)
+    .await?
+    .get(0);
+    insert_plan(conn, id, &plan).await?;
+    log_transition(conn, id, None, SessionState::Reserved, "started").await?;
+    loads.add(start.study_id, &share);
+    Ok(Started::New(token))
+}
+
+/// Consent inside the writer's transaction: reserved → active (once).
+pub(crate) async fn consent_in(conn: &mut SqliteConnection, token: &str, consent_sha256: &str) -> Result<(), DbError> {
+    let p = load_by_token(conn, token).await?;
+    if p.consented {
+        return Ok(());
+    }
+    let active = SessionState::Active;
+    may_become(p.state, active)?;
+    sqlx::query("UPDATE participants SET consent_sha256 = ?, state = ?, updated_at = ? WHERE id = ?")
+        .bind(consent_sha256)
+        .bind(active.as_str())
+        .bind(now_ms())
+        .bind(p.id)
+        .execute(&mut *conn)
+        .await?;
+    log_transition(conn, p.id, Some(p.state), active, "consent given").await
+}
+
+/// Demographics inside the writer's transaction (replacing earlier ones) while the
+/// participation is open.
+pub(crate) async fn demographics_in(conn: &mut SqliteConnection, token: &str, d: &Demographics) -> Result<(), DbError> {
+    let p = load_by_token(conn, token).await?;
+    if !p.state.is_open() {
+        return Err(DbError::Conflict(format!("this participation is {}", p.state)));
+    }
+    sqlx::query("INSERT OR REPLACE INTO demographics (participant_id, age, gender, ethnicity, education) VALUES (?, ?, ?, ?, ?)")
+        .bind(p.id)
+        .bind(d.age)
+        .bind(&d.gender)
+        .bind(&d.ethnicity)
+        .bind(&d.education)
+        .execute(&mut *conn)
+        .await?;
+    Ok(())
+}
+
+/// A withdrawal inside the writer's transaction.
+pub(crate) async fn withdraw_in(conn: &mut SqliteConnection, token: &str) -> Result<(), DbError> {
+    let p = load_by_token(conn, token).await?;
+    transition(conn, p.id, p.state, SessionState::Withdrawn, "withdrawn by the participant").await
+}
+
 /// One save inside the writer's transaction.
-async fn save_in(tx: &mut SqliteConnection, save: &PendingSave) -> Result<SaveOutcome, DbError> {
-    let PendingSave { token, position, key, answer, timing, .. } = save;
+pub(crate) async fn save_in(tx: &mut SqliteConnection, save: &SaveRequest) -> Result<SaveOutcome, DbError> {
+    let SaveRequest { token, position, key, answer, timing, .. } = save;
     let position = *position;
     let answers = serde_json::to_string(&answer.0).map_err(|e| DbError::Conflict(e.to_string()))?;
     // Everything the checks need, in one statement (each statement is a round trip to
     // SQLite's worker thread, and the writer is the bottleneck under load).
     let row = sqlx::query(
-        "SELECT p.id, p.state, t.kind IS NOT NULL, t.check_index,
+        "SELECT p.id, p.state, p.attention_failures, t.kind IS NOT NULL, t.check_index,
                 (SELECT r.participant_id = p.id AND r.position = ?2 FROM responses r WHERE r.idempotency_key = ?3),
                 EXISTS (SELECT 1 FROM responses r WHERE r.participant_id = p.id AND r.position = ?2),
                 (SELECT COUNT(*) FROM trials u WHERE u.participant_id = p.id
@@ -446,8 +528,8 @@ async fn save_in(tx: &mut SqliteConnection, save: &PendingSave) -> Result<SaveOu
     .fetch_optional(&mut *tx)
     .await?
     .ok_or_else(|| DbError::NotFound("no such participation".into()))?;
-    let (id, state_text, trial_exists, check, key_match, answered, remaining): (i64, String, bool, Option<i64>, Option<bool>, bool, i64) =
-        (row.get(0), row.get(1), row.get(2), row.get(3), row.get(4), row.get(5), row.get(6));
+    let (id, state_text, failures, trial_exists, check, key_match, answered, remaining): (i64, String, i64, bool, Option<i64>, Option<bool>, bool, i64) =
+        (row.get(0), row.get(1), row.get(2), row.get(3), row.get(4), row.get(5), row.get(6), row.get(7));
     let state = SessionState::parse(&state_text).ok_or_else(|| DbError::Conflict(format!("unknown state \"{state_text}\"")))?;
     match key_match {
         Some(true) => return Ok(SaveOutcome { saved: Saved::Repeated, state, remaining }),
@@ -463,6 +545,13 @@ async fn save_in(tx: &mut SqliteConnection, save: &PendingSave) -> Result<SaveOu
     if answered {
         return Err(DbError::Conflict(format!("trial {position} is answered already")));
     }
+    let failed_check = check.and_then(|i| save.checks.get(i as usize)).is_some_and(|c| !passes_check(answer, &c.measure, &c.value));
+    let failures = failures + i64::from(failed_check);
+    let remaining = remaining - 1;
+    let (state, reason) = match after_save(failed_check, failures, save.max_failures, remaining) {
+        Some((to, reason)) => (to, Some(reason)),
+        None => (SessionState::Active, None),
+    };
     let now = now_ms();
     sqlx::query("INSERT INTO responses (participant_id, position, idempotency_key, answers, rt_ms, video_ended, load_failed, received_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?)")
         .bind(id)
@@ -475,26 +564,29 @@ async fn save_in(tx: &mut SqliteConnection, save: &PendingSave) -> Result<SaveOu
         .bind(now)
         .execute(&mut *tx)
         .await?;
-    let remaining = remaining - 1;
-    let mut state = state;
-    if let Some(check) = check.and_then(|i| save.checks.get(i as usize))
-        && !passes_check(answer, &check.measure, &check.value)
-    {
-        let failures: i64 = sqlx::query("UPDATE participants SET attention_failures = attention_failures + 1 WHERE id = ? RETURNING attention_failures")
-            .bind(id)
-            .fetch_one(&mut *tx)
-            .await?
-            .get(0);
-        if failures >= i64::from(save.max_failures) {
-            transition(tx, id, state, SessionState::ScreenedOut, &format!("failed {failures} attention checks")).await?;
-            state = SessionState::ScreenedOut;
-        }
-    }
-    let expires = now + i64::from(save.reservation_minutes) * 60_000;
-    sqlx::query("UPDATE participants SET updated_at = ?, expires_at = ? WHERE id = ?").bind(now).bind(expires).bind(id).execute(&mut *tx).await?;
-    if remaining == 0 && state == SessionState::Active {
-        transition(tx, id, state, SessionState::Completed, "last trial saved").await?;
-        state = SessionState::Completed;
+    // The attention failures, the state and the renewed reservation in one statement.
+    sqlx::query("UPDATE participants SET attention_failures = ?, state = ?, updated_at = ?, expires_at = ? WHERE id = ?")
+        .bind(failures)
+        .bind(state.as_str())
+        .bind(now)
+        .bind(now + i64::from(save.reservation_minutes) * 60_000)
+        .bind(id)
+        .execute(&mut *tx)
+        .await?;
+    if let Some(reason) = reason {
+        log_transition(tx, id, Some(SessionState::Active), state, &reason).await?;
     }
     Ok(SaveOutcome { saved: Saved::Stored, state, remaining })
+}
+
+/// Where an active participation goes after a stored answer, and why: screened out when this
+/// answer failed an attention check once too often, completed with its last trial.
+fn after_save(failed_check: bool, failures: i64, max_failures: u32, remaining: i64) -> Option<(SessionState, String)> {
+    if failed_check && failures >= i64::from(max_failures) {
+        Some((SessionState::ScreenedOut, format!("failed {failures} attention checks")))
+    } else if remaining == 0 {
+        Some((SessionState::Completed, "last trial saved".to_string()))
+    } else {
+        None
+    }
 }

@@ -122,15 +122,26 @@ async fn start(State(app): State<AppState>, Path(slug): Path<String>, headers: H
     Ok(([(header::SET_COOKIE, set_cookie)], Redirect::to(&format!("/p/{token}"))).into_response())
 }
 
+/// Whether `token` looks like a participation token at all (32 hex digits).
+fn well_formed(token: &str) -> Result<(), WebError> {
+    if token.len() == 32 && token.bytes().all(|b| b.is_ascii_hexdigit()) { Ok(()) } else { Err(WebError::NotFound) }
+}
+
 /// A participation with its study, or 404.
 async fn participation(app: &AppState, token: &str) -> Result<(Participation, std::sync::Arc<LoadedStudy>), WebError> {
-    let valid = token.len() == 32 && token.bytes().all(|b| b.is_ascii_hexdigit());
-    if !valid {
-        return Err(WebError::NotFound);
-    }
+    well_formed(token)?;
     let p = app.db.participation(token).await?.ok_or(WebError::NotFound)?;
     let study = app.study_by_id(p.study_id).await?;
     Ok((p, study))
+}
+
+/// The study of a participation, or 404, for writes that need no more: the writer checks the
+/// participation's state itself, and the study behind a token is known from memory after the
+/// first request.
+async fn participation_study(app: &AppState, token: &str) -> Result<std::sync::Arc<LoadedStudy>, WebError> {
+    well_formed(token)?;
+    let study = app.db.participation_study(token).await?.ok_or(WebError::NotFound)?;
+    app.study_by_id(study).await
 }
 
 /// Where a participation goes next.
@@ -172,7 +183,7 @@ async fn consent_page(State(app): State<AppState>, Path(token): Path<String>) ->
 }
 
 async fn consent(State(app): State<AppState>, Path(token): Path<String>, Form(form): Form<HashMap<String, String>>) -> Result<Response, WebError> {
-    let (_, study) = participation(&app, &token).await?;
+    let study = participation_study(&app, &token).await?;
     if form.get("agree").map(String::as_str) != Some("1") {
         return Err(WebError::BadRequest("please tick the consent box to take part, or close this page".into()));
     }
@@ -303,10 +314,10 @@ async fn trial_page(State(app): State<AppState>, Path(token): Path<String>) -> R
 
 /// Validates and stores one answer; returns where the participant goes next.
 async fn save(app: &AppState, token: &str, position: i64, submission: Submission) -> Result<(SaveOutcome, String), WebError> {
-    let (p, study) = participation(app, token).await?;
+    let study = participation_study(app, token).await?;
     let answer = submission.answer(&study.design)?;
     let timing = SaveTiming { rt_ms: submission.rt_ms, video_ended: submission.video_ended, load_failed: submission.load_failed };
-    let outcome = app.db.save_response(&p.token, position, &submission.idempotency_key, &answer, timing, &study.design).await?;
+    let outcome = app.db.save_response(token, position, &submission.idempotency_key, &answer, timing, &study.design).await?;
     let next = if outcome.state == SessionState::Active && outcome.remaining > 0 { format!("/p/{token}/trial") } else { format!("/p/{token}/done") };
     Ok((outcome, next))
 }

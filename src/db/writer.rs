@@ -1,0 +1,309 @@
+//! The writer task: participant writes (starts, consent, demographics, trial saves,
+//! withdrawals) wait in one queue, and the task stores whatever is waiting, up to [`BATCH`]
+//! requests, in one `BEGIN IMMEDIATE` transaction on the writer connection (group commit), then
+//! answers each request.
+//!
+//! Invariants: requests run in arrival order, and each sees what those before it in the same
+//! batch wrote, so one-participation-per-worker and idempotency checks hold across a batch;
+//! balanced assignment counts the stimulus loads once per batch, adds each start's share and
+//! counts again after a withdrawal or a screen-out ([`StimulusLoads`]). Each request runs in its own savepoint: one that fails (a conflict, a
+//! missing trial, an SQL error) is rolled back alone and gets its own error while the rest of
+//! the batch commits. When the transaction itself fails (begin, a savepoint, the commit),
+//! nothing of the batch is stored and every request in it gets [`DbError::Unavailable`], so the
+//! client may send it again.
+
+use sqlx::{SqliteConnection, SqlitePool};
+use tokio::sync::{mpsc, oneshot};
+
+use super::DbError;
+use super::participants::{self, Demographics, SaveOutcome, SaveRequest, Saved, StartRequest, Started, StimulusLoads};
+use crate::study::SessionState;
+
+/// Most requests stored in one transaction.
+pub(crate) const BATCH: usize = 128;
+
+/// How many requests may wait for the writer before senders wait too.
+pub(crate) const QUEUE: usize = 4096;
+
+/// A participant write, as the writer task runs it.
+#[derive(Debug)]
+pub(crate) enum Request {
+    Start(StartRequest),
+    Consent { token: String, consent_sha256: String },
+    Demographics { token: String, demographics: Demographics },
+    Save(SaveRequest),
+    Withdraw { token: String },
+}
+
+/// What a request stored.
+#[derive(Debug)]
+pub(crate) enum Written {
+    Started(Started),
+    Saved(SaveOutcome),
+    /// Consent, demographics or a withdrawal.
+    Recorded,
+}
+
+impl Written {
+    /// The error for an answer of the wrong kind (the writer answers each request with its own
+    /// kind, so this does not happen).
+    pub(crate) fn unexpected(self) -> DbError {
+        DbError::Unavailable(format!("the writer answered with {self:?}"))
+    }
+}
+
+/// A request waiting in the queue, with where its answer goes.
+pub(crate) struct Write {
+    pub(crate) request: Request,
+    pub(crate) reply: oneshot::Sender<Result<Written, DbError>>,
+}
+
+/// Takes the requests that are waiting (up to [`BATCH`]), stores them together and answers
+/// each; until the queue closes.
+pub(crate) async fn write_batches(writer: SqlitePool, mut queue: mpsc::Receiver<Write>) {
+    while let Some(first) = queue.recv().await {
+        let mut batch = vec![first];
+        while batch.len() < BATCH {
+            match queue.try_recv() {
+                Ok(write) => batch.push(write),
+                Err(_) => break,
+            }
+        }
+        let (requests, replies): (Vec<Request>, Vec<_>) = batch.into_iter().map(|w| (w.request, w.reply)).unzip();
+        match store(&writer, requests).await {
+            Ok(outcomes) => {
+                for (reply, outcome) in replies.into_iter().zip(outcomes) {
+                    let _ = reply.send(outcome);
+                }
+            }
+            Err(e) => {
+                let message = e.to_string();
+                for reply in replies {
+                    let _ = reply.send(Err(DbError::Unavailable(message.clone())));
+                }
+            }
+        }
+    }
+}
+
+/// Runs `requests` in one transaction, each in its own savepoint, and commits. `Ok` holds each
+/// request's own outcome; `Err` means the transaction failed and nothing was stored.
+pub(crate) async fn store(writer: &SqlitePool, requests: Vec<Request>) -> Result<Vec<Result<Written, DbError>>, DbError> {
+    let mut tx = writer.begin_with("BEGIN IMMEDIATE").await?;
+    // One savepoint is always open: a request that succeeds is released and a new savepoint
+    // opened (one statement), one that fails is rolled back to it (which keeps it open).
+    sqlx::raw_sql("SAVEPOINT request").execute(&mut *tx).await?;
+    let mut loads = StimulusLoads::default();
+    let mut outcomes = Vec::with_capacity(requests.len());
+    for request in requests {
+        let outcome = run(&mut tx, request, &mut loads).await;
+        let next = if outcome.is_ok() { "RELEASE request; SAVEPOINT request" } else { "ROLLBACK TO request" };
+        sqlx::raw_sql(next).execute(&mut *tx).await?;
+        outcomes.push(outcome);
+    }
+    tx.commit().await?;
+    Ok(outcomes)
+}
+
+async fn run(conn: &mut SqliteConnection, request: Request, loads: &mut StimulusLoads) -> Result<Written, DbError> {
+    match request {
+        Request::Start(start) => participants::start_in(conn, &start, loads).await.map(Written::Started),
+        Request::Consent { token, consent_sha256 } => participants::consent_in(conn, &token, &consent_sha256).await.map(|()| Written::Recorded),
+        Request::Demographics { token, demographics } => participants::demographics_in(conn, &token, &demographics).await.map(|()| Written::Recorded),
+        Request::Save(save) => {
+            let outcome = participants::save_in(conn, &save).await?;
+            if outcome.saved == Saved::Stored && outcome.state == SessionState::ScreenedOut {
+                loads.forget();
+            }
+            Ok(Written::Saved(outcome))
+        }
+        Request::Withdraw { token } => {
+            participants::withdraw_in(conn, &token).await?;
+            loads.forget();
+            Ok(Written::Recorded)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::db::Db;
+    use crate::db::participants::SaveTiming;
+    use crate::db::studies::StudyStimulus;
+    use crate::study::{Answer, StudyDesign};
+
+    fn design(extra: &str) -> (String, StudyDesign) {
+        let toml = format!(
+            "slug = \"batch\"\ntitle = \"Batch\"\ntask = \"emotion\"\nstimuli = \"set\"\npractice_trials = 0\ndemographics = false\nconsent = \"ok\"\ninstructions = \"go\"\ndebrief = \"thanks\"\n{extra}"
+        );
+        let design = StudyDesign::from_toml(&toml).expect("design");
+        (toml, design)
+    }
+
+    /// A database in `dir` with one open study of `stimuli` stimuli.
+    async fn study(dir: &tempfile::TempDir, extra: &str, stimuli: usize) -> (Db, i64, StudyDesign) {
+        let db = Db::open(&dir.path().join("batch.db")).await.expect("database");
+        let (toml, design) = design(extra);
+        let stimuli: Vec<StudyStimulus> = (0..stimuli)
+            .map(|i| StudyStimulus { stimulus_id: format!("s{i:02}"), media: "image".into(), file: format!("media/s{i:02}.png"), emotion: String::new() })
+            .collect();
+        let id = db.create_study(&design, &toml, "set", &stimuli, true).await.expect("study");
+        (db, id, design)
+    }
+
+    fn start(study: i64, design: &StudyDesign, worker: &str) -> Request {
+        Request::Start(StartRequest::new(study, design, worker, "{}"))
+    }
+
+    fn started(outcome: &Result<Written, DbError>) -> Option<&Started> {
+        match outcome {
+            Ok(Written::Started(started)) => Some(started),
+            _ => None,
+        }
+    }
+
+    fn token(outcome: &Result<Written, DbError>) -> String {
+        match started(outcome) {
+            Some(Started::New(token) | Started::Existing(token)) => token.clone(),
+            other => panic!("not started: {other:?}"),
+        }
+    }
+
+    async fn main_trials_per_stimulus(db: &Db) -> Vec<i64> {
+        sqlx::query_scalar("SELECT COUNT(*) FROM trials WHERE kind = 'trial' GROUP BY stimulus_id").fetch_all(&db.reader).await.expect("counts")
+    }
+
+    #[tokio::test]
+    async fn a_worker_starting_twice_in_one_batch_gets_one_participation() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let (db, id, design) = study(&dir, "", 4).await;
+        let outcomes = store(&db.writer, vec![start(id, &design, "w1"), start(id, &design, "w2"), start(id, &design, "w1")]).await.expect("batch");
+        assert!(matches!(started(&outcomes[0]), Some(Started::New(_))));
+        assert!(matches!(started(&outcomes[1]), Some(Started::New(_))));
+        assert!(matches!(started(&outcomes[2]), Some(Started::Existing(_))));
+        assert_eq!(token(&outcomes[2]), token(&outcomes[0]));
+        assert_ne!(token(&outcomes[1]), token(&outcomes[0]));
+        let participations: i64 = sqlx::query_scalar("SELECT COUNT(*) FROM participants").fetch_one(&db.reader).await.expect("count");
+        assert_eq!(participations, 2);
+    }
+
+    #[tokio::test]
+    async fn starts_in_one_batch_see_each_others_assignments() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let (db, id, design) = study(&dir, "trials_per_participant = 3", 10).await;
+        // Ten shares of three over ten stimuli: least loaded first gives every stimulus three.
+        let starts = (0..10).map(|w| start(id, &design, &format!("w{w}"))).collect();
+        let outcomes = store(&db.writer, starts).await.expect("batch");
+        assert!(outcomes.iter().all(|o| matches!(started(o), Some(Started::New(_)))));
+        assert_eq!(main_trials_per_stimulus(&db).await, vec![3; 10]);
+    }
+
+    #[tokio::test]
+    async fn a_study_fills_up_within_a_batch() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let (db, id, design) = study(&dir, "trials_per_participant = 2\nratings_per_stimulus = 1", 4).await;
+        let starts = (0..3).map(|w| start(id, &design, &format!("w{w}"))).collect();
+        let outcomes = store(&db.writer, starts).await.expect("batch");
+        assert!(matches!(started(&outcomes[1]), Some(Started::New(_))));
+        assert!(matches!(started(&outcomes[2]), Some(Started::Full)), "{:?}", outcomes[2]);
+        assert_eq!(main_trials_per_stimulus(&db).await, vec![1; 4]);
+    }
+
+    #[tokio::test]
+    async fn a_withdrawal_frees_its_stimuli_for_later_starts_in_the_batch() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let (db, id, design) = study(&dir, "trials_per_participant = 1\nratings_per_stimulus = 1", 2).await;
+        let first = store(&db.writer, vec![start(id, &design, "w1"), start(id, &design, "w2")]).await.expect("starts");
+        let outcomes = store(&db.writer, vec![start(id, &design, "w3"), Request::Withdraw { token: token(&first[0]) }, start(id, &design, "w3")]).await.expect("batch");
+        assert!(matches!(started(&outcomes[0]), Some(Started::Full)), "{:?}", outcomes[0]);
+        assert!(matches!(started(&outcomes[2]), Some(Started::New(_))), "{:?}", outcomes[2]);
+    }
+
+    #[tokio::test]
+    async fn a_failing_request_is_rolled_back_alone() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let (db, id, design) = study(&dir, "", 2).await;
+        let first = store(&db.writer, vec![start(id, &design, "w1"), start(id, &design, "w2"), start(id, &design, "w3")]).await.expect("starts");
+        let (active, withdrawn, broken) = (token(&first[0]), token(&first[1]), token(&first[2]));
+        db.withdraw(&withdrawn).await.expect("withdraw");
+        // An SQL error part-way through a request: the consent of `broken` updates its row,
+        // then logging the change fails.
+        sqlx::raw_sql(sqlx::AssertSqlSafe(format!(
+            "CREATE TRIGGER refuse BEFORE INSERT ON session_events WHEN NEW.participant_id = (SELECT id FROM participants WHERE token = '{broken}')
+             BEGIN SELECT RAISE(ABORT, 'refused'); END"
+        )))
+        .execute(&db.writer)
+        .await
+        .expect("trigger");
+        let answer = Answer(vec![("emotion".into(), "fear".into())]);
+        let save = |key: &str| Request::Save(SaveRequest::new(&active, 0, key, &answer, SaveTiming::default(), &design));
+        let consent = |token: &str| Request::Consent { token: token.to_string(), consent_sha256: design.consent_sha256() };
+        let outcomes = store(&db.writer, vec![consent(&active), consent(&broken), consent(&withdrawn), save("k1"), save("k2"), consent(&"0".repeat(32)), save("k1")])
+            .await
+            .expect("batch");
+        assert!(matches!(outcomes[0], Ok(Written::Recorded)));
+        assert!(matches!(outcomes[1], Err(DbError::Sql(_))), "{:?}", outcomes[1]);
+        assert!(matches!(outcomes[2], Err(DbError::Conflict(_))), "{:?}", outcomes[2]);
+        assert!(matches!(outcomes[3], Ok(Written::Saved(SaveOutcome { saved: Saved::Stored, remaining: 1, .. }))), "{:?}", outcomes[3]);
+        assert!(matches!(outcomes[4], Err(DbError::Conflict(_))), "answered already: {:?}", outcomes[4]);
+        assert!(matches!(outcomes[5], Err(DbError::NotFound(_))), "{:?}", outcomes[5]);
+        assert!(matches!(outcomes[6], Ok(Written::Saved(SaveOutcome { saved: Saved::Repeated, .. }))), "{:?}", outcomes[6]);
+        let state = |token: String| {
+            let db = db.clone();
+            async move {
+                let p = db.participation(&token).await.expect("read").expect("participation");
+                (p.state, p.consented)
+            }
+        };
+        assert_eq!(state(active.clone()).await, (SessionState::Active, true));
+        assert_eq!(state(broken).await, (SessionState::Reserved, false), "the consent's update was rolled back");
+        assert_eq!(state(withdrawn).await, (SessionState::Withdrawn, false));
+    }
+
+    #[tokio::test]
+    async fn saves_in_one_batch_complete_or_screen_out_their_participations() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let check = "[attention]\nmax_failures = 1\nchecks = [{ instruction = \"choose fear\", measure = \"emotion\", value = \"fear\" }]";
+        let (db, id, design) = study(&dir, check, 2).await;
+        let first = store(&db.writer, vec![start(id, &design, "careful"), start(id, &design, "careless")]).await.expect("starts");
+        let tokens = [token(&first[0]), token(&first[1])];
+        for token in &tokens {
+            db.give_consent(token, &design.consent_sha256()).await.expect("consent");
+        }
+        // Every trial of both in one batch: the careful one answers the check as asked.
+        let mut saves = Vec::new();
+        for (token, at_check) in tokens.iter().zip(["fear", "joy"]) {
+            let p = db.participation(token).await.expect("read").expect("participation");
+            for trial in db.trials(p.id).await.expect("trials") {
+                let emotion = if trial.check_index.is_some() { at_check } else { "anger" };
+                let answer = Answer(vec![("emotion".into(), emotion.into())]);
+                saves.push(Request::Save(SaveRequest::new(token, trial.position, &format!("{token}-{}", trial.position), &answer, SaveTiming::default(), &design)));
+            }
+        }
+        let outcomes = store(&db.writer, saves).await.expect("saves");
+        let states: Vec<_> = outcomes.iter().map(|o| match o {
+            Ok(Written::Saved(saved)) => Ok(saved.state),
+            other => Err(format!("{other:?}")),
+        }).collect();
+        // Three trials each (two stimuli and the check); the careless one is out at the check,
+        // and its later saves are refused.
+        assert_eq!(&states[..3], &[Ok(SessionState::Active), Ok(SessionState::Active), Ok(SessionState::Completed)][..]);
+        assert!(states[3..].contains(&Ok(SessionState::ScreenedOut)), "{states:?}");
+        let events: Vec<(String, String)> = sqlx::query_as("SELECT to_state, reason FROM session_events WHERE from_state = 'active' ORDER BY id")
+            .fetch_all(&db.reader)
+            .await
+            .expect("events");
+        assert_eq!(events, vec![("completed".into(), "last trial saved".into()), ("screened_out".into(), "failed 1 attention checks".into())]);
+    }
+
+    #[tokio::test]
+    async fn the_study_of_a_token_is_remembered() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let (db, id, design) = study(&dir, "", 2).await;
+        let Started::New(token) = db.start_participation(id, &design, "w1", "{}").await.expect("start") else { panic!("not new") };
+        assert_eq!(db.participation_study(&token).await.expect("lookup"), Some(id));
+        assert_eq!(db.studies_of_tokens.lock().expect("cache").get(token.as_str()), Some(id));
+        assert_eq!(db.participation_study(&"0".repeat(32)).await.expect("lookup"), None);
+    }
+}
