@@ -69,9 +69,13 @@ impl Db {
             .synchronous(SqliteSynchronous::Normal)
             .foreign_keys(true)
             .busy_timeout(Duration::from_secs(10));
-        let writer = SqlitePoolOptions::new().max_connections(1).test_before_acquire(false).connect_with(options.clone()).await?;
+        // No idle timeout or lifetime: SQLite connections do not go stale, and with either set
+        // sqlx 0.9.0 runs a pool maintenance task that can spin at 100 % CPU under contention
+        // (sqlx issue #3645).
+        let pool = |connections| SqlitePoolOptions::new().max_connections(connections).test_before_acquire(false).idle_timeout(None).max_lifetime(None);
+        let writer = pool(1).connect_with(options.clone()).await?;
         MIGRATOR.run(&writer).await?;
-        let reader = SqlitePoolOptions::new().max_connections(4).test_before_acquire(false).connect_with(options.read_only(true)).await?;
+        let reader = pool(4).connect_with(options.read_only(true)).await?;
         let (writes, queue) = tokio::sync::mpsc::channel(writer::QUEUE);
         tokio::spawn(writer::write_batches(writer.clone(), queue));
         Ok(Db { writer, reader, writes, studies_of_tokens: Arc::new(Mutex::new(recent::Recent::new(TOKENS_KEPT))) })
