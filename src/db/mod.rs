@@ -3,11 +3,12 @@
 //! In: study designs, participations, saves and admin actions from the web layer. Out: typed
 //! rows and streams for pages and exports. Invariants (design.md §6.9): WAL journal, foreign keys
 //! on, a busy timeout; every read-then-write runs in one `BEGIN IMMEDIATE` transaction on the
-//! single writer connection, so balance counts and idempotency checks never race; participant
-//! writes (starts, consent, demographics, saves, withdrawals) go through the writer task
-//! ([`writer`]), which stores whatever is waiting in one such transaction; readers use their own
-//! pool and never block the writer; WAL pages are copied into the database file by a checkpoint
-//! on a connection of its own, so commits do not wait for that I/O. Times are Unix milliseconds.
+//! single writer connection, so balance counts and idempotency checks never race; every change
+//! to participations (starts, consent, demographics, saves, withdrawals, exclusions, the reaper)
+//! goes through the writer task ([`writer`]), which stores whatever is waiting in one such
+//! transaction; readers use their own pool and never block the writer; WAL pages are copied into
+//! the database file by a checkpoint on a connection of its own, so commits do not wait for that
+//! I/O. Times are Unix milliseconds.
 
 pub mod admin;
 pub mod export;

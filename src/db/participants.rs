@@ -1,10 +1,10 @@
 //! Participations: start (balanced assignment), consent, demographics, per-trial saves,
 //! withdrawal, exclusion and the reaper that abandons expired reservations.
 //!
-//! Participant writes are requests to the writer task (`super::writer`), which runs the `…_in`
-//! functions here inside its batch transaction; the admin's writes and the reaper run their own
-//! `BEGIN IMMEDIATE` transactions. Every state change is written to `session_events` with its
-//! reason.
+//! Every change to participations (starts, consent, demographics, saves, withdrawals,
+//! exclusions, the reaper) is a request to the writer task (`super::writer`), which runs the
+//! `…_in` functions here inside its batch transaction. Every state change is written to
+//! `session_events` with its reason.
 
 use std::collections::HashMap;
 use std::collections::hash_map::Entry;
@@ -225,15 +225,10 @@ impl Db {
 
     /// Abandons every open participation whose reservation expired before `now`; returns how many.
     pub async fn reap(&self, now: i64) -> Result<usize, DbError> {
-        let mut tx = self.immediate().await?;
-        let expired = sqlx::query(EXPIRED).bind(now).fetch_all(&mut *tx).await?;
-        let n = expired.len();
-        for row in expired {
-            let p = participation(row)?;
-            transition(&mut tx, p.id, p.state, SessionState::Abandoned, "reservation expired").await?;
+        match self.write(Request::Reap { now }).await? {
+            Written::Reaped(n) => Ok(n),
+            other => Err(other.unexpected()),
         }
-        tx.commit().await?;
-        Ok(n)
     }
 
     /// Participations of a study for the admin table.
@@ -309,9 +304,9 @@ const LOADS_KEPT_MS: i64 = 1_000;
 /// The load of each stimulus of a study (main trials of completed participations plus those
 /// of unexpired reservations), in stimulus id order: counted at most every [`LOADS_KEPT_MS`],
 /// kept current by adding the share of each start the writer stores, and counted again after
-/// anything that makes a participation stop counting (withdrawal, screen-out, exclusion, a
-/// failed batch). Besides the writer task only the reaper changes participations, and the
-/// reservations it abandons had stopped counting already (they expired).
+/// anything that makes a participation stop counting (withdrawal, screen-out, exclusion, the
+/// reaper's abandonments, a failed batch). This holds because every change to participations
+/// goes through the writer task.
 #[derive(Debug, Default)]
 pub(crate) struct StimulusLoads {
     by_study: HashMap<i64, CountedLoads>,
@@ -522,6 +517,18 @@ pub(crate) async fn exclude_in(conn: &mut SqliteConnection, study_id: i64, publi
         return Err(DbError::NotFound(format!("no participant \"{public_id}\" in this study")));
     }
     Ok(())
+}
+
+/// The reaper inside the writer's transaction: abandons the open participations whose
+/// reservation expired before `now`; returns how many.
+pub(crate) async fn reap_in(conn: &mut SqliteConnection, now: i64) -> Result<usize, DbError> {
+    let expired = sqlx::query(EXPIRED).bind(now).fetch_all(&mut *conn).await?;
+    let n = expired.len();
+    for row in expired {
+        let p = participation(row)?;
+        transition(conn, p.id, p.state, SessionState::Abandoned, "reservation expired").await?;
+    }
+    Ok(n)
 }
 
 /// A withdrawal inside the writer's transaction.

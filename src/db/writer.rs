@@ -1,13 +1,13 @@
-//! The writer task: participant writes (starts, consent, demographics, trial saves,
-//! withdrawals, exclusions) wait in one queue, and the task stores whatever is waiting, up to [`BATCH`]
+//! The writer task: every change to participations (starts, consent, demographics, trial saves,
+//! withdrawals, exclusions, the reaper) waits in one queue, and the task stores whatever is waiting, up to [`BATCH`]
 //! requests, in one `BEGIN IMMEDIATE` transaction on the writer connection (group commit), then
 //! answers each request.
 //!
 //! Invariants: requests run in arrival order, and each sees what those before it in the same
 //! batch wrote, so one-participation-per-worker and idempotency checks hold across a batch;
 //! balanced assignment counts the stimulus loads at most once a second, adds each start's share
-//! and counts again after a withdrawal, a screen-out, an exclusion or a failed batch
-//! ([`StimulusLoads`]). Each request runs in its own savepoint: one that fails (a conflict, a
+//! and counts again after a withdrawal, a screen-out, an exclusion, an abandonment or a failed
+//! batch ([`StimulusLoads`]). Each request runs in its own savepoint: one that fails (a conflict, a
 //! missing trial, an SQL error) is rolled back alone and gets its own error while the rest of
 //! the batch commits. When the transaction itself fails (begin, a savepoint, the commit),
 //! nothing of the batch is stored and every request in it gets [`DbError::Unavailable`], so the
@@ -35,6 +35,8 @@ pub(crate) enum Request {
     Save(SaveRequest),
     Withdraw { token: String },
     Exclude { study_id: i64, public_id: String, excluded: bool, reason: String },
+    /// Abandons the reservations that expired before `now`.
+    Reap { now: i64 },
 }
 
 /// What a request stored.
@@ -44,6 +46,8 @@ pub(crate) enum Written {
     Saved(SaveOutcome),
     /// Consent, demographics, a withdrawal or an exclusion.
     Recorded,
+    /// How many reservations the reaper abandoned.
+    Reaped(usize),
 }
 
 impl Written {
@@ -130,6 +134,13 @@ async fn run(conn: &mut SqliteConnection, request: Request, loads: &mut Stimulus
             participants::exclude_in(conn, study_id, &public_id, excluded, &reason).await?;
             loads.forget();
             Ok(Written::Recorded)
+        }
+        Request::Reap { now } => {
+            let abandoned = participants::reap_in(conn, now).await?;
+            if abandoned > 0 {
+                loads.forget();
+            }
+            Ok(Written::Reaped(abandoned))
         }
     }
 }
@@ -230,6 +241,19 @@ mod tests {
         let first = store(&db.writer, &mut loads, vec![start(id, &design, "w1"), start(id, &design, "w2")]).await.expect("starts");
         let outcomes = store(&db.writer, &mut loads, vec![start(id, &design, "w3"), Request::Withdraw { token: token(&first[0]) }, start(id, &design, "w3")]).await.expect("batch");
         assert!(matches!(started(&outcomes[0]), Some(Started::Full)), "{:?}", outcomes[0]);
+        assert!(matches!(started(&outcomes[2]), Some(Started::New(_))), "{:?}", outcomes[2]);
+    }
+
+    #[tokio::test]
+    async fn the_reaper_frees_expired_reservations_for_later_starts() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let (db, id, design) = study(&dir, "trials_per_participant = 1\nratings_per_stimulus = 1\nreservation_minutes = 30", 2).await;
+        let mut loads = StimulusLoads::default();
+        store(&db.writer, &mut loads, vec![start(id, &design, "w1"), start(id, &design, "w2")]).await.expect("starts");
+        let later = crate::db::now_ms() + 31 * 60_000;
+        let outcomes = store(&db.writer, &mut loads, vec![start(id, &design, "w3"), Request::Reap { now: later }, start(id, &design, "w3")]).await.expect("batch");
+        assert!(matches!(started(&outcomes[0]), Some(Started::Full)), "{:?}", outcomes[0]);
+        assert!(matches!(outcomes[1], Ok(Written::Reaped(2))), "{:?}", outcomes[1]);
         assert!(matches!(started(&outcomes[2]), Some(Started::New(_))), "{:?}", outcomes[2]);
     }
 
