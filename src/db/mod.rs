@@ -3,10 +3,12 @@
 //! In: study designs, participations, saves and admin actions from the web layer. Out: typed
 //! rows and streams for pages and exports. Invariants (design.md §6.9): WAL journal, foreign keys
 //! on, a busy timeout; every read-then-write runs in one `BEGIN IMMEDIATE` transaction on the
-//! single writer connection, so balance counts and idempotency checks never race; participant
-//! writes (starts, consent, demographics, saves, withdrawals) go through the writer task
-//! ([`writer`]), which stores whatever is waiting in one such transaction; readers use their own
-//! pool and never block the writer. Times are Unix milliseconds.
+//! single writer connection, so balance counts and idempotency checks never race; every change
+//! to participations (starts, consent, demographics, saves, withdrawals, exclusions, the reaper)
+//! goes through the writer task ([`writer`]), which stores whatever is waiting in one such
+//! transaction; readers use their own pool and never block the writer; WAL pages are copied into
+//! the database file by a checkpoint on a connection of its own, so commits do not wait for that
+//! I/O. Times are Unix milliseconds.
 
 pub mod admin;
 pub mod export;
@@ -47,6 +49,8 @@ pub struct Db {
     writer: SqlitePool,
     /// Several connections for pages, progress and exports.
     reader: SqlitePool,
+    /// One connection that copies the WAL into the database file ([`checkpoint_forever`]).
+    checkpointer: SqlitePool,
     /// Participant writes, stored by the writer task in group commits.
     writes: tokio::sync::mpsc::Sender<writer::Write>,
     /// Which study each recently seen participation token belongs to (this never changes).
@@ -56,6 +60,31 @@ pub struct Db {
 /// How many participation tokens [`Db::participation_study`] keeps in memory (per generation of
 /// [`recent::Recent`]).
 const TOKENS_KEPT: usize = 32_768;
+
+/// WAL pages after which the writer checkpoints by itself (SQLite's default is 1,000); normally
+/// [`checkpoint_forever`] has copied them long before.
+const WRITER_CHECKPOINT_PAGES: &str = "4000";
+
+/// How often [`checkpoint_forever`] copies the WAL into the database file.
+const CHECKPOINT_EVERY: Duration = Duration::from_millis(500);
+
+/// Copies committed WAL pages into the database file on its own connection, so the writer's
+/// commits do not wait for a checkpoint's writes and `fsync`s (`PASSIVE` takes no lock that
+/// blocks the writer or readers). Ends when the database is closed or no [`Db`] is left (none
+/// holds the writer's queue).
+async fn checkpoint_forever(checkpointer: SqlitePool, writes: tokio::sync::mpsc::WeakSender<writer::Write>) {
+    let mut tick = tokio::time::interval(CHECKPOINT_EVERY);
+    tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    loop {
+        tick.tick().await;
+        if checkpointer.is_closed() || writes.upgrade().is_none() {
+            return;
+        }
+        if let Err(e) = sqlx::raw_sql("PRAGMA wal_checkpoint(PASSIVE)").execute(&checkpointer).await {
+            eprintln!("checkpoint: {e}");
+        }
+    }
+}
 
 static MIGRATOR: sqlx::migrate::Migrator = sqlx::migrate!("./migrations");
 
@@ -69,12 +98,18 @@ impl Db {
             .synchronous(SqliteSynchronous::Normal)
             .foreign_keys(true)
             .busy_timeout(Duration::from_secs(10));
-        let writer = SqlitePoolOptions::new().max_connections(1).test_before_acquire(false).connect_with(options.clone()).await?;
+        // No idle timeout or lifetime: SQLite connections do not go stale, and with either set
+        // sqlx 0.9.0 runs a pool maintenance task that can spin at 100 % CPU under contention
+        // (sqlx issue #3645).
+        let pool = |connections| SqlitePoolOptions::new().max_connections(connections).test_before_acquire(false).idle_timeout(None).max_lifetime(None);
+        let writer = pool(1).connect_with(options.clone().pragma("wal_autocheckpoint", WRITER_CHECKPOINT_PAGES)).await?;
         MIGRATOR.run(&writer).await?;
-        let reader = SqlitePoolOptions::new().max_connections(4).test_before_acquire(false).connect_with(options.read_only(true)).await?;
+        let checkpointer = pool(1).connect_with(options.clone()).await?;
+        let reader = pool(4).connect_with(options.read_only(true)).await?;
         let (writes, queue) = tokio::sync::mpsc::channel(writer::QUEUE);
         tokio::spawn(writer::write_batches(writer.clone(), queue));
-        Ok(Db { writer, reader, writes, studies_of_tokens: Arc::new(Mutex::new(recent::Recent::new(TOKENS_KEPT))) })
+        tokio::spawn(checkpoint_forever(checkpointer.clone(), writes.downgrade()));
+        Ok(Db { writer, reader, checkpointer, writes, studies_of_tokens: Arc::new(Mutex::new(recent::Recent::new(TOKENS_KEPT))) })
     }
 
     /// Writes a consistent copy of the database to `path` (`VACUUM INTO`, safe while serving).
@@ -86,6 +121,7 @@ impl Db {
     pub async fn close(&self) {
         self.writer.close().await;
         self.reader.close().await;
+        self.checkpointer.close().await;
     }
 
     /// Hands `request` to the writer task and waits until its batch is committed.
@@ -119,4 +155,24 @@ pub fn secret_token() -> String {
 pub fn token_sha256(token: &str) -> String {
     use sha2::Digest;
     hex::encode(sha2::Sha256::digest(token.as_bytes()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[tokio::test]
+    async fn the_checkpoint_task_copies_the_wal_into_the_database_file() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let path = dir.path().join("checkpoint.db");
+        let db = Db::open(&path).await.expect("database");
+        let pages = |name: &'static str| {
+            let reader = db.reader.clone();
+            async move { sqlx::query_scalar::<_, i64>(name).fetch_one(&reader).await.expect("pragma") }
+        };
+        let size = pages("PRAGMA page_count").await * pages("PRAGMA page_size").await;
+        tokio::time::sleep(CHECKPOINT_EVERY * 2).await;
+        let on_disk = std::fs::metadata(&path).expect("database file").len();
+        assert_eq!(on_disk as i64, size, "the migrations' pages are in the database file, not only in the WAL");
+    }
 }

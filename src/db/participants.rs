@@ -1,10 +1,10 @@
 //! Participations: start (balanced assignment), consent, demographics, per-trial saves,
 //! withdrawal, exclusion and the reaper that abandons expired reservations.
 //!
-//! Participant writes are requests to the writer task (`super::writer`), which runs the `…_in`
-//! functions here inside its batch transaction; the admin's writes and the reaper run their own
-//! `BEGIN IMMEDIATE` transactions. Every state change is written to `session_events` with its
-//! reason.
+//! Every change to participations (starts, consent, demographics, saves, withdrawals,
+//! exclusions, the reaper) is a request to the writer task (`super::writer`), which runs the
+//! `…_in` functions here inside its batch transaction. Every state change is written to
+//! `session_events` with its reason.
 
 use std::collections::HashMap;
 use std::collections::hash_map::Entry;
@@ -217,32 +217,18 @@ impl Db {
         }
     }
 
-    /// Marks or unmarks a participation as excluded from analyses (with the reason).
+    /// Marks or unmarks a participation as excluded from analyses (with the reason); an
+    /// excluded participation does not count for balanced assignment.
     pub async fn set_excluded(&self, study_id: i64, public_id: &str, excluded: bool, reason: &str) -> Result<(), DbError> {
-        let done = sqlx::query("UPDATE participants SET excluded = ?, exclusion_reason = ? WHERE study_id = ? AND public_id = ?")
-            .bind(excluded)
-            .bind(if excluded { Some(reason) } else { None })
-            .bind(study_id)
-            .bind(public_id)
-            .execute(&self.writer)
-            .await?;
-        if done.rows_affected() == 0 {
-            return Err(DbError::NotFound(format!("no participant \"{public_id}\" in this study")));
-        }
-        Ok(())
+        self.record(Request::Exclude { study_id, public_id: public_id.to_string(), excluded, reason: reason.to_string() }).await
     }
 
     /// Abandons every open participation whose reservation expired before `now`; returns how many.
     pub async fn reap(&self, now: i64) -> Result<usize, DbError> {
-        let mut tx = self.immediate().await?;
-        let expired = sqlx::query(EXPIRED).bind(now).fetch_all(&mut *tx).await?;
-        let n = expired.len();
-        for row in expired {
-            let p = participation(row)?;
-            transition(&mut tx, p.id, p.state, SessionState::Abandoned, "reservation expired").await?;
+        match self.write(Request::Reap { now }).await? {
+            Written::Reaped(n) => Ok(n),
+            other => Err(other.unexpected()),
         }
-        tx.commit().await?;
-        Ok(n)
     }
 
     /// Participations of a study for the admin table.
@@ -310,21 +296,39 @@ async fn insert_plan(conn: &mut SqliteConnection, participant: i64, plan: &[Plan
     Ok(())
 }
 
+/// How long counted stimulus loads are used before they are counted again (milliseconds):
+/// counting reads every main trial of the study, and the starts in between are added as they
+/// are stored; a reservation that expires in between is released for assignment this much later.
+const LOADS_KEPT_MS: i64 = 1_000;
+
 /// The load of each stimulus of a study (main trials of completed participations plus those
-/// of unexpired reservations), counted once per batch, in stimulus id order, and kept current
-/// by adding the share of each start in the batch.
+/// of unexpired reservations), in stimulus id order: counted at most every [`LOADS_KEPT_MS`],
+/// kept current by adding the share of each start the writer stores, and counted again after
+/// anything that makes a participation stop counting (withdrawal, screen-out, exclusion, the
+/// reaper's abandonments, a failed batch). This holds because every change to participations
+/// goes through the writer task.
 #[derive(Debug, Default)]
 pub(crate) struct StimulusLoads {
-    by_study: HashMap<i64, Vec<(String, usize)>>,
+    by_study: HashMap<i64, CountedLoads>,
+}
+
+#[derive(Debug)]
+struct CountedLoads {
+    counted_at: i64,
+    loads: Vec<(String, usize)>,
 }
 
 impl StimulusLoads {
-    /// The loads of `study_id`'s stimuli, counted at `now` the first time they are asked for.
+    /// The loads of `study_id`'s stimuli at `now`.
     pub(crate) async fn of(&mut self, conn: &mut SqliteConnection, study_id: i64, now: i64) -> Result<&[(String, usize)], DbError> {
-        Ok(match self.by_study.entry(study_id) {
-            Entry::Occupied(known) => known.into_mut(),
-            Entry::Vacant(unknown) => unknown.insert(count_loads(conn, study_id, now).await?),
-        })
+        let counted = match self.by_study.entry(study_id) {
+            Entry::Occupied(known) if now - known.get().counted_at < LOADS_KEPT_MS => known.into_mut(),
+            entry => {
+                let loads = count_loads(conn, study_id, now).await?;
+                entry.insert_entry(CountedLoads { counted_at: now, loads }).into_mut()
+            }
+        };
+        Ok(&counted.loads)
     }
 
     /// Counts again at the next start (a participation stopped counting).
@@ -334,7 +338,7 @@ impl StimulusLoads {
 
     /// Counts a new participation's main stimuli.
     pub(crate) fn add(&mut self, study_id: i64, share: &[String]) {
-        let Some(loads) = self.by_study.get_mut(&study_id) else { return };
+        let Some(CountedLoads { loads, .. }) = self.by_study.get_mut(&study_id) else { return };
         for stimulus in share {
             if let Ok(at) = loads.binary_search_by(|(id, _)| id.as_str().cmp(stimulus)) {
                 loads[at].1 += 1;
@@ -419,7 +423,7 @@ impl SaveRequest {
 }
 
 /// One start inside the writer's transaction: finds the worker's participation, or assigns the
-/// least-loaded stimuli (counting the starts before it in the batch) and stores the plan.
+/// least-loaded stimuli (counting the starts stored before it) and stores the plan.
 pub(crate) async fn start_in(conn: &mut SqliteConnection, start: &StartRequest, loads: &mut StimulusLoads) -> Result<Started, DbError> {
     let now = now_ms();
     let existing = sqlx::query("SELECT token FROM participants WHERE study_id = ? AND worker_id = ?")
@@ -498,6 +502,33 @@ pub(crate) async fn demographics_in(conn: &mut SqliteConnection, token: &str, d:
         .execute(&mut *conn)
         .await?;
     Ok(())
+}
+
+/// An exclusion (or its undoing) inside the writer's transaction.
+pub(crate) async fn exclude_in(conn: &mut SqliteConnection, study_id: i64, public_id: &str, excluded: bool, reason: &str) -> Result<(), DbError> {
+    let done = sqlx::query("UPDATE participants SET excluded = ?, exclusion_reason = ? WHERE study_id = ? AND public_id = ?")
+        .bind(excluded)
+        .bind(if excluded { Some(reason) } else { None })
+        .bind(study_id)
+        .bind(public_id)
+        .execute(&mut *conn)
+        .await?;
+    if done.rows_affected() == 0 {
+        return Err(DbError::NotFound(format!("no participant \"{public_id}\" in this study")));
+    }
+    Ok(())
+}
+
+/// The reaper inside the writer's transaction: abandons the open participations whose
+/// reservation expired before `now`; returns how many.
+pub(crate) async fn reap_in(conn: &mut SqliteConnection, now: i64) -> Result<usize, DbError> {
+    let expired = sqlx::query(EXPIRED).bind(now).fetch_all(&mut *conn).await?;
+    let n = expired.len();
+    for row in expired {
+        let p = participation(row)?;
+        transition(conn, p.id, p.state, SessionState::Abandoned, "reservation expired").await?;
+    }
+    Ok(n)
 }
 
 /// A withdrawal inside the writer's transaction.

@@ -1,12 +1,13 @@
-//! The writer task: participant writes (starts, consent, demographics, trial saves,
-//! withdrawals) wait in one queue, and the task stores whatever is waiting, up to [`BATCH`]
+//! The writer task: every change to participations (starts, consent, demographics, trial saves,
+//! withdrawals, exclusions, the reaper) waits in one queue, and the task stores whatever is waiting, up to [`BATCH`]
 //! requests, in one `BEGIN IMMEDIATE` transaction on the writer connection (group commit), then
 //! answers each request.
 //!
 //! Invariants: requests run in arrival order, and each sees what those before it in the same
 //! batch wrote, so one-participation-per-worker and idempotency checks hold across a batch;
-//! balanced assignment counts the stimulus loads once per batch, adds each start's share and
-//! counts again after a withdrawal or a screen-out ([`StimulusLoads`]). Each request runs in its own savepoint: one that fails (a conflict, a
+//! balanced assignment counts the stimulus loads at most once a second, adds each start's share
+//! and counts again after a withdrawal, a screen-out, an exclusion, an abandonment or a failed
+//! batch ([`StimulusLoads`]). Each request runs in its own savepoint: one that fails (a conflict, a
 //! missing trial, an SQL error) is rolled back alone and gets its own error while the rest of
 //! the batch commits. When the transaction itself fails (begin, a savepoint, the commit),
 //! nothing of the batch is stored and every request in it gets [`DbError::Unavailable`], so the
@@ -33,6 +34,9 @@ pub(crate) enum Request {
     Demographics { token: String, demographics: Demographics },
     Save(SaveRequest),
     Withdraw { token: String },
+    Exclude { study_id: i64, public_id: String, excluded: bool, reason: String },
+    /// Abandons the reservations that expired before `now`.
+    Reap { now: i64 },
 }
 
 /// What a request stored.
@@ -40,8 +44,10 @@ pub(crate) enum Request {
 pub(crate) enum Written {
     Started(Started),
     Saved(SaveOutcome),
-    /// Consent, demographics or a withdrawal.
+    /// Consent, demographics, a withdrawal or an exclusion.
     Recorded,
+    /// How many reservations the reaper abandoned.
+    Reaped(usize),
 }
 
 impl Written {
@@ -61,6 +67,7 @@ pub(crate) struct Write {
 /// Takes the requests that are waiting (up to [`BATCH`]), stores them together and answers
 /// each; until the queue closes.
 pub(crate) async fn write_batches(writer: SqlitePool, mut queue: mpsc::Receiver<Write>) {
+    let mut loads = StimulusLoads::default();
     while let Some(first) = queue.recv().await {
         let mut batch = vec![first];
         while batch.len() < BATCH {
@@ -70,13 +77,14 @@ pub(crate) async fn write_batches(writer: SqlitePool, mut queue: mpsc::Receiver<
             }
         }
         let (requests, replies): (Vec<Request>, Vec<_>) = batch.into_iter().map(|w| (w.request, w.reply)).unzip();
-        match store(&writer, requests).await {
+        match store(&writer, &mut loads, requests).await {
             Ok(outcomes) => {
                 for (reply, outcome) in replies.into_iter().zip(outcomes) {
                     let _ = reply.send(outcome);
                 }
             }
             Err(e) => {
+                loads.forget();
                 let message = e.to_string();
                 for reply in replies {
                     let _ = reply.send(Err(DbError::Unavailable(message.clone())));
@@ -87,16 +95,16 @@ pub(crate) async fn write_batches(writer: SqlitePool, mut queue: mpsc::Receiver<
 }
 
 /// Runs `requests` in one transaction, each in its own savepoint, and commits. `Ok` holds each
-/// request's own outcome; `Err` means the transaction failed and nothing was stored.
-pub(crate) async fn store(writer: &SqlitePool, requests: Vec<Request>) -> Result<Vec<Result<Written, DbError>>, DbError> {
+/// request's own outcome; `Err` means the transaction failed and nothing was stored (then
+/// `loads` must be forgotten: they count the batch's starts).
+pub(crate) async fn store(writer: &SqlitePool, loads: &mut StimulusLoads, requests: Vec<Request>) -> Result<Vec<Result<Written, DbError>>, DbError> {
     let mut tx = writer.begin_with("BEGIN IMMEDIATE").await?;
     // One savepoint is always open: a request that succeeds is released and a new savepoint
     // opened (one statement), one that fails is rolled back to it (which keeps it open).
     sqlx::raw_sql("SAVEPOINT request").execute(&mut *tx).await?;
-    let mut loads = StimulusLoads::default();
     let mut outcomes = Vec::with_capacity(requests.len());
     for request in requests {
-        let outcome = run(&mut tx, request, &mut loads).await;
+        let outcome = run(&mut tx, request, loads).await;
         let next = if outcome.is_ok() { "RELEASE request; SAVEPOINT request" } else { "ROLLBACK TO request" };
         sqlx::raw_sql(next).execute(&mut *tx).await?;
         outcomes.push(outcome);
@@ -121,6 +129,18 @@ async fn run(conn: &mut SqliteConnection, request: Request, loads: &mut Stimulus
             participants::withdraw_in(conn, &token).await?;
             loads.forget();
             Ok(Written::Recorded)
+        }
+        Request::Exclude { study_id, public_id, excluded, reason } => {
+            participants::exclude_in(conn, study_id, &public_id, excluded, &reason).await?;
+            loads.forget();
+            Ok(Written::Recorded)
+        }
+        Request::Reap { now } => {
+            let abandoned = participants::reap_in(conn, now).await?;
+            if abandoned > 0 {
+                loads.forget();
+            }
+            Ok(Written::Reaped(abandoned))
         }
     }
 }
@@ -178,7 +198,8 @@ mod tests {
     async fn a_worker_starting_twice_in_one_batch_gets_one_participation() {
         let dir = tempfile::tempdir().expect("temp dir");
         let (db, id, design) = study(&dir, "", 4).await;
-        let outcomes = store(&db.writer, vec![start(id, &design, "w1"), start(id, &design, "w2"), start(id, &design, "w1")]).await.expect("batch");
+        let mut loads = StimulusLoads::default();
+        let outcomes = store(&db.writer, &mut loads, vec![start(id, &design, "w1"), start(id, &design, "w2"), start(id, &design, "w1")]).await.expect("batch");
         assert!(matches!(started(&outcomes[0]), Some(Started::New(_))));
         assert!(matches!(started(&outcomes[1]), Some(Started::New(_))));
         assert!(matches!(started(&outcomes[2]), Some(Started::Existing(_))));
@@ -192,9 +213,10 @@ mod tests {
     async fn starts_in_one_batch_see_each_others_assignments() {
         let dir = tempfile::tempdir().expect("temp dir");
         let (db, id, design) = study(&dir, "trials_per_participant = 3", 10).await;
+        let mut loads = StimulusLoads::default();
         // Ten shares of three over ten stimuli: least loaded first gives every stimulus three.
         let starts = (0..10).map(|w| start(id, &design, &format!("w{w}"))).collect();
-        let outcomes = store(&db.writer, starts).await.expect("batch");
+        let outcomes = store(&db.writer, &mut loads, starts).await.expect("batch");
         assert!(outcomes.iter().all(|o| matches!(started(o), Some(Started::New(_)))));
         assert_eq!(main_trials_per_stimulus(&db).await, vec![3; 10]);
     }
@@ -203,8 +225,9 @@ mod tests {
     async fn a_study_fills_up_within_a_batch() {
         let dir = tempfile::tempdir().expect("temp dir");
         let (db, id, design) = study(&dir, "trials_per_participant = 2\nratings_per_stimulus = 1", 4).await;
+        let mut loads = StimulusLoads::default();
         let starts = (0..3).map(|w| start(id, &design, &format!("w{w}"))).collect();
-        let outcomes = store(&db.writer, starts).await.expect("batch");
+        let outcomes = store(&db.writer, &mut loads, starts).await.expect("batch");
         assert!(matches!(started(&outcomes[1]), Some(Started::New(_))));
         assert!(matches!(started(&outcomes[2]), Some(Started::Full)), "{:?}", outcomes[2]);
         assert_eq!(main_trials_per_stimulus(&db).await, vec![1; 4]);
@@ -214,17 +237,49 @@ mod tests {
     async fn a_withdrawal_frees_its_stimuli_for_later_starts_in_the_batch() {
         let dir = tempfile::tempdir().expect("temp dir");
         let (db, id, design) = study(&dir, "trials_per_participant = 1\nratings_per_stimulus = 1", 2).await;
-        let first = store(&db.writer, vec![start(id, &design, "w1"), start(id, &design, "w2")]).await.expect("starts");
-        let outcomes = store(&db.writer, vec![start(id, &design, "w3"), Request::Withdraw { token: token(&first[0]) }, start(id, &design, "w3")]).await.expect("batch");
+        let mut loads = StimulusLoads::default();
+        let first = store(&db.writer, &mut loads, vec![start(id, &design, "w1"), start(id, &design, "w2")]).await.expect("starts");
+        let outcomes = store(&db.writer, &mut loads, vec![start(id, &design, "w3"), Request::Withdraw { token: token(&first[0]) }, start(id, &design, "w3")]).await.expect("batch");
         assert!(matches!(started(&outcomes[0]), Some(Started::Full)), "{:?}", outcomes[0]);
         assert!(matches!(started(&outcomes[2]), Some(Started::New(_))), "{:?}", outcomes[2]);
+    }
+
+    #[tokio::test]
+    async fn the_reaper_frees_expired_reservations_for_later_starts() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let (db, id, design) = study(&dir, "trials_per_participant = 1\nratings_per_stimulus = 1\nreservation_minutes = 30", 2).await;
+        let mut loads = StimulusLoads::default();
+        store(&db.writer, &mut loads, vec![start(id, &design, "w1"), start(id, &design, "w2")]).await.expect("starts");
+        let later = crate::db::now_ms() + 31 * 60_000;
+        let outcomes = store(&db.writer, &mut loads, vec![start(id, &design, "w3"), Request::Reap { now: later }, start(id, &design, "w3")]).await.expect("batch");
+        assert!(matches!(started(&outcomes[0]), Some(Started::Full)), "{:?}", outcomes[0]);
+        assert!(matches!(outcomes[1], Ok(Written::Reaped(2))), "{:?}", outcomes[1]);
+        assert!(matches!(started(&outcomes[2]), Some(Started::New(_))), "{:?}", outcomes[2]);
+    }
+
+    #[tokio::test]
+    async fn loads_are_kept_between_batches_and_counted_again_after_an_exclusion() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let (db, id, design) = study(&dir, "trials_per_participant = 1\nratings_per_stimulus = 1", 2).await;
+        let mut loads = StimulusLoads::default();
+        let first = store(&db.writer, &mut loads, vec![start(id, &design, "w1")]).await.expect("start");
+        let second = store(&db.writer, &mut loads, vec![start(id, &design, "w2"), start(id, &design, "w3")]).await.expect("starts");
+        assert!(matches!(started(&second[0]), Some(Started::New(_))), "the other stimulus: {:?}", second[0]);
+        assert!(matches!(started(&second[1]), Some(Started::Full)), "{:?}", second[1]);
+        assert_eq!(main_trials_per_stimulus(&db).await, vec![1, 1]);
+        let public_id = db.participation(&token(&first[0])).await.expect("read").expect("participation").public_id;
+        let exclude = Request::Exclude { study_id: id, public_id, excluded: true, reason: "test".into() };
+        let third = store(&db.writer, &mut loads, vec![exclude, start(id, &design, "w3")]).await.expect("batch");
+        assert!(matches!(third[0], Ok(Written::Recorded)), "{:?}", third[0]);
+        assert!(matches!(started(&third[1]), Some(Started::New(_))), "the excluded one's stimulus is free: {:?}", third[1]);
     }
 
     #[tokio::test]
     async fn a_failing_request_is_rolled_back_alone() {
         let dir = tempfile::tempdir().expect("temp dir");
         let (db, id, design) = study(&dir, "", 2).await;
-        let first = store(&db.writer, vec![start(id, &design, "w1"), start(id, &design, "w2"), start(id, &design, "w3")]).await.expect("starts");
+        let mut loads = StimulusLoads::default();
+        let first = store(&db.writer, &mut loads, vec![start(id, &design, "w1"), start(id, &design, "w2"), start(id, &design, "w3")]).await.expect("starts");
         let (active, withdrawn, broken) = (token(&first[0]), token(&first[1]), token(&first[2]));
         db.withdraw(&withdrawn).await.expect("withdraw");
         // An SQL error part-way through a request: the consent of `broken` updates its row,
@@ -239,7 +294,7 @@ mod tests {
         let answer = Answer(vec![("emotion".into(), "fear".into())]);
         let save = |key: &str| Request::Save(SaveRequest::new(&active, 0, key, &answer, SaveTiming::default(), &design));
         let consent = |token: &str| Request::Consent { token: token.to_string(), consent_sha256: design.consent_sha256() };
-        let outcomes = store(&db.writer, vec![consent(&active), consent(&broken), consent(&withdrawn), save("k1"), save("k2"), consent(&"0".repeat(32)), save("k1")])
+        let outcomes = store(&db.writer, &mut loads, vec![consent(&active), consent(&broken), consent(&withdrawn), save("k1"), save("k2"), consent(&"0".repeat(32)), save("k1")])
             .await
             .expect("batch");
         assert!(matches!(outcomes[0], Ok(Written::Recorded)));
@@ -266,7 +321,8 @@ mod tests {
         let dir = tempfile::tempdir().expect("temp dir");
         let check = "[attention]\nmax_failures = 1\nchecks = [{ instruction = \"choose fear\", measure = \"emotion\", value = \"fear\" }]";
         let (db, id, design) = study(&dir, check, 2).await;
-        let first = store(&db.writer, vec![start(id, &design, "careful"), start(id, &design, "careless")]).await.expect("starts");
+        let mut loads = StimulusLoads::default();
+        let first = store(&db.writer, &mut loads, vec![start(id, &design, "careful"), start(id, &design, "careless")]).await.expect("starts");
         let tokens = [token(&first[0]), token(&first[1])];
         for token in &tokens {
             db.give_consent(token, &design.consent_sha256()).await.expect("consent");
@@ -281,7 +337,7 @@ mod tests {
                 saves.push(Request::Save(SaveRequest::new(token, trial.position, &format!("{token}-{}", trial.position), &answer, SaveTiming::default(), &design)));
             }
         }
-        let outcomes = store(&db.writer, saves).await.expect("saves");
+        let outcomes = store(&db.writer, &mut loads, saves).await.expect("saves");
         let states: Vec<_> = outcomes.iter().map(|o| match o {
             Ok(Written::Saved(saved)) => Ok(saved.state),
             other => Err(format!("{other:?}")),
