@@ -1,15 +1,15 @@
 //! The writer task: every change to participations (starts, consent, demographics, trial saves,
-//! withdrawals, exclusions, the reaper) waits in one queue, and the task stores whatever is waiting, up to [`BATCH`]
-//! requests, in one `BEGIN IMMEDIATE` transaction on the writer connection (group commit), then
-//! answers each request.
+//! withdrawals, exclusions, the reaper) waits in one queue, and the task stores whatever is
+//! waiting, up to [`BATCH`] requests, in one `BEGIN IMMEDIATE` transaction on the writer
+//! connection (group commit), then answers each request.
 //!
 //! Invariants: requests run in arrival order, and each sees what those before it in the same
 //! batch wrote, so one-participation-per-worker and idempotency checks hold across a batch;
 //! balanced assignment counts the stimulus loads at most once a second, adds each start's share
 //! and counts again after a withdrawal, a screen-out, an exclusion, an abandonment or a failed
-//! batch ([`StimulusLoads`]). Each request runs in its own savepoint: one that fails (a conflict, a
-//! missing trial, an SQL error) is rolled back alone and gets its own error while the rest of
-//! the batch commits. When the transaction itself fails (begin, a savepoint, the commit),
+//! batch ([`StimulusLoads`]). Each request runs in its own savepoint: one that fails (a
+//! conflict, a missing trial, an SQL error) is rolled back alone and gets its own error while
+//! the rest of the batch commits. When the transaction itself fails (begin, a savepoint, the commit),
 //! nothing of the batch is stored and every request in it gets [`DbError::Unavailable`], so the
 //! client may send it again.
 
@@ -26,7 +26,7 @@ pub(crate) const BATCH: usize = 128;
 /// How many requests may wait for the writer before senders wait too.
 pub(crate) const QUEUE: usize = 4096;
 
-/// A participant write, as the writer task runs it.
+/// A change to participations, as the writer task runs it.
 #[derive(Debug)]
 pub(crate) enum Request {
     Start(StartRequest),
