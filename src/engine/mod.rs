@@ -21,6 +21,9 @@ pub mod sheet;
 pub mod timeline;
 pub mod video;
 
+use std::collections::BTreeMap;
+use std::sync::{Arc, Mutex};
+
 use glam::Vec3;
 
 use crate::facs::Expression;
@@ -114,6 +117,18 @@ pub fn render_posed(posed: &Posed, identity: &Identity, settings: FrameSettings)
     let shader = shade::FaceShader::new(model, posed, identity, height).with_shadows(&shadow);
     let options = RenderOptions { samples_per_pixel: SampleCount::X4, threads, backface_culling: false, shade_per_surface: true };
     Ok(raster::render(&scene, &camera, &shader, &options))
+}
+
+/// The value cached under `key`, or `make()` stored there: the per-person caches of the engine
+/// (prepared shapes, skin maps) share this. Two threads may both make a missing value; the
+/// values are equal, as making is deterministic.
+pub(crate) fn cached<K: Ord, V, E>(cache: &Mutex<BTreeMap<K, Arc<V>>>, key: K, make: impl FnOnce() -> Result<V, E>) -> Result<Arc<V>, E> {
+    if let Some(found) = cache.lock().unwrap_or_else(|p| p.into_inner()).get(&key) {
+        return Ok(Arc::clone(found));
+    }
+    let value = Arc::new(make()?);
+    cache.lock().unwrap_or_else(|p| p.into_inner()).insert(key, Arc::clone(&value));
+    Ok(value)
 }
 
 #[cfg(test)]

@@ -82,13 +82,7 @@ impl PreparedIdentity {
     /// The prepared identity for `identity`, cached by id for the life of the process.
     pub fn cached(model: &FaceModel, identity: &Identity) -> Result<Arc<PreparedIdentity>, AssetError> {
         static CACHE: OnceLock<Mutex<BTreeMap<String, Arc<PreparedIdentity>>>> = OnceLock::new();
-        let cache = CACHE.get_or_init(Default::default);
-        if let Some(found) = cache.lock().unwrap_or_else(|p| p.into_inner()).get(&identity.id) {
-            return Ok(Arc::clone(found));
-        }
-        let prepared = Arc::new(PreparedIdentity::new(model, identity)?);
-        cache.lock().unwrap_or_else(|p| p.into_inner()).insert(identity.id.clone(), Arc::clone(&prepared));
-        Ok(prepared)
+        super::cached(CACHE.get_or_init(Default::default), identity.id.clone(), || PreparedIdentity::new(model, identity))
     }
 }
 

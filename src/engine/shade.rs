@@ -151,13 +151,8 @@ impl SkinMaps {
         type Key = (String, u32, u32);
         static CACHE: OnceLock<Mutex<BTreeMap<Key, Arc<SkinMaps>>>> = OnceLock::new();
         let key = (identity.id.clone(), identity.stubble.to_bits(), identity.hairline.to_bits());
-        let cache = CACHE.get_or_init(Default::default);
-        if let Some(found) = cache.lock().unwrap_or_else(|p| p.into_inner()).get(&key) {
-            return Arc::clone(found);
-        }
-        let maps = Arc::new(SkinMaps::new(model, identity));
-        cache.lock().unwrap_or_else(|p| p.into_inner()).insert(key, Arc::clone(&maps));
-        maps
+        let made: Result<_, std::convert::Infallible> = super::cached(CACHE.get_or_init(Default::default), key, || Ok(SkinMaps::new(model, identity)));
+        made.unwrap_or_else(|never| match never {})
     }
 
     fn new(model: &FaceModel, identity: &Identity) -> SkinMaps {
