@@ -366,7 +366,7 @@ async fn count_loads(conn: &mut SqliteConnection, study_id: i64, now: i64) -> Re
 #[derive(Debug)]
 pub(crate) struct StartRequest {
     study_id: i64,
-    worker_id: String,
+    pub(super) worker_id: String,
     platform: &'static str,
     platform_params: String,
     group: String,

@@ -3,8 +3,16 @@
 //! waiting, up to [`BATCH`] requests, in one `BEGIN IMMEDIATE` transaction on the writer
 //! connection (group commit), then answers each request.
 //!
-//! Invariants: requests run in arrival order, and each sees what those before it in the same
-//! batch wrote, so one-participation-per-worker and idempotency checks hold across a batch;
+//! Participants' steps (consent, demographics, trial saves) go into the next batch as they
+//! come; at most [`ORDERED_PER_BATCH`] of the other requests (starts, withdrawals, exclusions,
+//! the reaper), which cost more, go into one batch, the rest wait for the next ones, so a burst
+//! of arrivals does not hold up the saves of those already at work ([`Batches`]).
+//!
+//! Invariants: the ordered requests run in arrival order, and a step may only run ahead of
+//! ordered requests that arrived before it (a step needs the token of a start that has been
+//! answered, so it never depends on one still waiting); each request sees what those before it
+//! in the same batch wrote, so one-participation-per-worker and idempotency checks hold across
+//! a batch;
 //! balanced assignment counts the stimulus loads at most once a second, adds each start's share
 //! and counts again after a withdrawal, a screen-out, an exclusion, an abandonment or a failed
 //! batch ([`StimulusLoads`]). Each request runs in its own savepoint: one that fails (a
@@ -12,6 +20,8 @@
 //! the rest of the batch commits. When the transaction itself fails (begin, a savepoint, the commit),
 //! nothing of the batch is stored and every request in it gets [`DbError::Unavailable`], so the
 //! client may send it again.
+
+use std::collections::VecDeque;
 
 use sqlx::{SqliteConnection, SqlitePool};
 use tokio::sync::{mpsc, oneshot};
@@ -25,6 +35,9 @@ pub(crate) const BATCH: usize = 128;
 
 /// How many requests may wait for the writer before senders wait too.
 pub(crate) const QUEUE: usize = 4096;
+
+/// Most ordered requests (starts, withdrawals, exclusions, reaps) in one batch.
+pub(crate) const ORDERED_PER_BATCH: usize = 8;
 
 /// A change to participations, as the writer task runs it.
 #[derive(Debug)]
@@ -50,6 +63,14 @@ pub(crate) enum Written {
     Reaped(usize),
 }
 
+impl Request {
+    /// A participant's step in a participation already started: it never waits behind ordered
+    /// requests.
+    fn is_step(&self) -> bool {
+        matches!(self, Request::Consent { .. } | Request::Demographics { .. } | Request::Save(_))
+    }
+}
+
 impl Written {
     /// The error for an answer of the wrong kind (the writer answers each request with its own
     /// kind, so this does not happen).
@@ -64,18 +85,56 @@ pub(crate) struct Write {
     pub(crate) reply: oneshot::Sender<Result<Written, DbError>>,
 }
 
-/// Takes the requests that are waiting (up to [`BATCH`]), stores them together and answers
-/// each; until the queue closes.
-pub(crate) async fn write_batches(writer: SqlitePool, mut queue: mpsc::Receiver<Write>) {
-    let mut loads = StimulusLoads::default();
-    while let Some(first) = queue.recv().await {
-        let mut batch = vec![first];
-        while batch.len() < BATCH {
+/// Cuts the queue into batches: every waiting step, and the ordered requests in arrival order,
+/// at most [`ORDERED_PER_BATCH`] of them per batch (the others are held for the next batches).
+#[derive(Default)]
+pub(crate) struct Batches {
+    held: VecDeque<Write>,
+}
+
+impl Batches {
+    /// The next batch (never empty); waits for a request when nothing is waiting; `None` once
+    /// the queue is closed and nothing is held.
+    pub(crate) async fn next(&mut self, queue: &mut mpsc::Receiver<Write>) -> Option<Vec<Write>> {
+        let mut batch = Vec::new();
+        let mut ordered = 0;
+        while ordered < ORDERED_PER_BATCH {
+            let Some(write) = self.held.pop_front() else { break };
+            batch.push(write);
+            ordered += 1;
+        }
+        if batch.is_empty() {
+            let write = queue.recv().await?;
+            self.place(write, &mut batch, &mut ordered);
+        }
+        while batch.len() < BATCH && self.held.len() < QUEUE {
             match queue.try_recv() {
-                Ok(write) => batch.push(write),
+                Ok(write) => self.place(write, &mut batch, &mut ordered),
                 Err(_) => break,
             }
         }
+        Some(batch)
+    }
+
+    /// Puts `write` in this batch, or holds it behind the ordered requests already held.
+    fn place(&mut self, write: Write, batch: &mut Vec<Write>, ordered: &mut usize) {
+        if write.request.is_step() {
+            batch.push(write);
+        } else if *ordered < ORDERED_PER_BATCH && self.held.is_empty() {
+            *ordered += 1;
+            batch.push(write);
+        } else {
+            self.held.push_back(write);
+        }
+    }
+}
+
+/// Takes the requests that are waiting, batch by batch ([`Batches`]), stores each batch
+/// together and answers each request; until the queue closes.
+pub(crate) async fn write_batches(writer: SqlitePool, mut queue: mpsc::Receiver<Write>) {
+    let mut loads = StimulusLoads::default();
+    let mut batches = Batches::default();
+    while let Some(batch) = batches.next(&mut queue).await {
         let (requests, replies): (Vec<Request>, Vec<_>) = batch.into_iter().map(|w| (w.request, w.reply)).unzip();
         match store(&writer, &mut loads, requests).await {
             Ok(outcomes) => {
@@ -361,5 +420,50 @@ mod tests {
         assert_eq!(db.participation_study(&token).await.expect("lookup"), Some(id));
         assert_eq!(db.studies_of_tokens.lock().expect("cache").get(token.as_str()), Some(id));
         assert_eq!(db.participation_study(&"0".repeat(32)).await.expect("lookup"), None);
+    }
+
+    /// What a batch holds, by name: `s:WORKER` for starts, `c:TOKEN` for consents.
+    fn names(batch: &[Write]) -> Vec<String> {
+        batch
+            .iter()
+            .map(|w| match &w.request {
+                Request::Start(start) => format!("s:{}", start.worker_id),
+                Request::Consent { token, .. } => format!("c:{token}"),
+                other => format!("{other:?}"),
+            })
+            .collect()
+    }
+
+    #[tokio::test]
+    async fn steps_go_ahead_of_a_burst_of_starts_which_keep_their_order() {
+        let (_, design) = design("");
+        let (sender, mut queue) = mpsc::channel(QUEUE);
+        let send = |request| {
+            let (reply, _) = oneshot::channel();
+            sender.try_send(Write { request, reply }).expect("queue has room");
+        };
+        for w in 0..20 {
+            send(start(1, &design, &format!("w{w:02}")));
+        }
+        for t in 0..3 {
+            send(Request::Consent { token: format!("t{t}"), consent_sha256: String::new() });
+        }
+        let mut batches = Batches::default();
+        let first = names(&batches.next(&mut queue).await.expect("a batch"));
+        let starts = |range: std::ops::Range<usize>| range.map(|w| format!("s:w{w:02}")).collect::<Vec<_>>();
+        let mut expected = starts(0..8);
+        expected.extend(["c:t0", "c:t1", "c:t2"].map(String::from));
+        assert_eq!(first, expected);
+        // A start arriving now queues behind the held ones.
+        send(start(1, &design, "w20"));
+        send(Request::Consent { token: "t3".into(), consent_sha256: String::new() });
+        let second = names(&batches.next(&mut queue).await.expect("a batch"));
+        let mut expected = starts(8..16);
+        expected.push("c:t3".into());
+        assert_eq!(second, expected);
+        let third = names(&batches.next(&mut queue).await.expect("a batch"));
+        assert_eq!(third, starts(16..21));
+        drop(sender);
+        assert!(batches.next(&mut queue).await.is_none());
     }
 }
