@@ -33,6 +33,7 @@ fn cpu_time_report() {
         uvs: &mesh.uvs,
         indices: &mesh.indices,
         part: 0,
+        two_sided: false,
     }];
     let camera = camera();
     println!("{} triangles, {}x{}", mesh.indices.len(), camera.width, camera.height);
@@ -41,7 +42,7 @@ fn cpu_time_report() {
         println!("wrote {}", path.to_string_lossy());
     }
     for spp in [4, 8, 16] {
-        let options = RenderOptions { samples_per_pixel: samples(spp), threads: Some(1), backface_culling: true };
+        let options = RenderOptions { samples_per_pixel: samples(spp), threads: Some(1), backface_culling: true, shade_per_surface: false };
         let frames = 60;
         let mut best = u64::MAX;
         let mut total = 0;
@@ -127,9 +128,10 @@ fn bench_render(bencher: Bencher, spp: u32, threads: Option<usize>) {
         uvs: &mesh.uvs,
         indices: &mesh.indices,
         part: 0,
+        two_sided: false,
     }];
     let camera = camera();
-    let options = RenderOptions { samples_per_pixel: samples(spp), threads, backface_culling: true };
+    let options = RenderOptions { samples_per_pixel: samples(spp), threads, backface_culling: true, shade_per_surface: false };
     bencher.bench(|| render(divan::black_box(&scene), &camera, &Lambert, &options));
 }
 
@@ -146,9 +148,9 @@ fn render_all_threads(bencher: Bencher, spp: u32) {
 #[divan::bench(args = [16])]
 fn visibility_one_thread(bencher: Bencher, spp: u32) {
     let mesh = sphere(64, 63);
-    let scene = [Triangles { positions: &mesh.positions, normals: &[], uvs: &[], indices: &mesh.indices, part: 0 }];
+    let scene = [Triangles { positions: &mesh.positions, normals: &[], uvs: &[], indices: &mesh.indices, part: 0, two_sided: false }];
     let camera = camera();
-    let options = RenderOptions { samples_per_pixel: samples(spp), threads: Some(1), backface_culling: true };
+    let options = RenderOptions { samples_per_pixel: samples(spp), threads: Some(1), backface_culling: true, shade_per_surface: false };
     bencher.bench(|| visibility(divan::black_box(&scene), &camera, &options));
 }
 
@@ -161,6 +163,7 @@ fn encode_png(bencher: Bencher) {
         uvs: &mesh.uvs,
         indices: &mesh.indices,
         part: 0,
+        two_sided: false,
     }];
     let image = render(&scene, &camera(), &Lambert, &RenderOptions::default());
     bencher.bench(|| divan::black_box(&image).encode_png());

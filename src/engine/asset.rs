@@ -72,6 +72,13 @@ impl Part {
     pub fn from_id(id: u16) -> Option<Part> {
         Part::ALL.get(id as usize).copied()
     }
+
+    /// Thin sheets and open shells (teeth, tongue, lashes), which may be seen from behind; the
+    /// skin and the eyeballs are closed surfaces seen from outside (the back of a fold in the
+    /// skin is hidden by its front).
+    pub fn is_thin(self) -> bool {
+        matches!(self, Part::TeethUpper | Part::TeethLower | Part::Tongue | Part::LashesUpper | Part::LashesLower)
+    }
 }
 
 /// A sparse morph target: per-vertex offsets in decimetres.

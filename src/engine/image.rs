@@ -135,7 +135,9 @@ impl Srgb8 {
         // NaN and negatives → 0; the multiplication by a power of two is exact, so the bucket
         // starts at or below `x`, and a bucket never spans more than one step.
         let x = if linear > 0.0 { linear.min(1.0) } else { 0.0 };
-        let bucket = (x * SRGB_BUCKETS as f32) as usize;
+        // SAFETY: `x` is in [0, 1] (NaN went to 0 above), so the product is a finite value in
+        // [0, SRGB_BUCKETS] and truncates to a valid `u32` (the saturating `as` costs more here).
+        let bucket = unsafe { (x * SRGB_BUCKETS as f32).to_int_unchecked::<u32>() } as usize;
         self.0.bucket_start[bucket] + u8::from(x >= self.0.bucket_next[bucket])
     }
 }

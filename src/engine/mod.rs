@@ -104,6 +104,7 @@ pub fn render_posed(posed: &Posed, identity: &Identity, settings: FrameSettings)
             uvs: &[],
             indices: &model.part(part).triangles,
             part: part.id(),
+            two_sided: part.is_thin(),
         })
         .collect();
     let camera = portrait_camera(posed.anchor, width, height);
@@ -115,7 +116,7 @@ pub fn render_posed(posed: &Posed, identity: &Identity, settings: FrameSettings)
         .collect();
     let shadow = shade::ShadowMap::new(&casters, posed.anchor + Vec3::new(0.0, -0.3, 0.0), SHADOW_MAP_SIZE, threads);
     let shader = shade::FaceShader::new(model, posed, identity, height).with_shadows(&shadow);
-    let options = RenderOptions { samples_per_pixel: SampleCount::X4, threads, backface_culling: false, shade_per_surface: true };
+    let options = RenderOptions { samples_per_pixel: SampleCount::X4, threads, backface_culling: true, shade_per_surface: true };
     Ok(raster::render(&scene, &camera, &shader, &options))
 }
 

@@ -53,6 +53,9 @@ pub struct Triangles<'a> {
     pub indices: &'a [[u32; 3]],
     /// A label handed to the shader (skin, eye, teeth, …).
     pub part: u16,
+    /// Drawn from both sides even with [`RenderOptions::backface_culling`] (thin sheets and open
+    /// shells, whose back may be in view).
+    pub two_sided: bool,
 }
 
 /// What the shader sees for one (pixel, triangle) pair.
@@ -144,7 +147,8 @@ pub struct RenderOptions {
     /// `None`: rayon's global pool; `Some(n)`: a pool of `n` threads (`Some(1)` runs on the
     /// calling thread). The output does not depend on it.
     pub threads: Option<usize>,
-    /// Drop triangles that are clockwise as seen by the camera (counter-clockwise is front).
+    /// Drop triangles that are clockwise as seen by the camera (counter-clockwise is front),
+    /// except those of [`Triangles::two_sided`] items.
     pub backface_culling: bool,
     /// Shade a pixel once per continuous surface instead of once per triangle: the samples of
     /// neighbouring triangles of one scene item (a vertex in common) are shaded together, with
@@ -406,6 +410,7 @@ impl Setup {
                     ClipVertex { h: homogeneous[i2], bary: Vec3::Z },
                 ];
                 let (item, triangle) = (item as u32, t as u32);
+                let backface_culling = backface_culling && !tris.two_sided;
                 if c0 | c1 | c2 == 0 {
                     setup.emit(corners, item, triangle, backface_culling);
                 } else {
@@ -837,6 +842,8 @@ fn resolve_tile(
     let full_count = n as f64 * SUB as f64;
     let srgb = Srgb8::new();
     let mut groups = PixelGroups::new();
+    // The last colour encoded and its bytes: runs of one colour (the backdrop) encode once.
+    let mut last: Option<(Vec3, [u8; 3])> = None;
     for row in 0..h {
         for col in 0..w {
             let (px, py) = ((x0 + col) as u32, (y0 + row) as u32);
@@ -875,7 +882,12 @@ fn resolve_tile(
                 }
                 colour
             };
-            out.extend_from_slice(&[srgb.encode(colour.x), srgb.encode(colour.y), srgb.encode(colour.z)]);
+            let bytes = match last {
+                Some((c, bytes)) if c == colour => bytes,
+                _ => [srgb.encode(colour.x), srgb.encode(colour.y), srgb.encode(colour.z)],
+            };
+            last = Some((colour, bytes));
+            out.extend_from_slice(&bytes);
         }
     }
     out
@@ -943,7 +955,7 @@ mod tests {
     }
 
     fn item<'a>(positions: &'a [Vec3], indices: &'a [[u32; 3]], part: u16) -> Triangles<'a> {
-        Triangles { positions, normals: &[], uvs: &[], indices, part }
+        Triangles { positions, normals: &[], uvs: &[], indices, part, two_sided: false }
     }
 
     fn opts(samples: SampleCount) -> RenderOptions {
@@ -1121,6 +1133,11 @@ mod tests {
         let culling = RenderOptions { backface_culling: true, ..opts(SampleCount::X4) };
         assert_eq!(visibility(&[item(&cw, &indices, 0)], &camera(S), &culling).covered(20, 20), 0);
         assert_eq!(visibility(&[item(&ccw, &indices, 0)], &camera(S), &culling).covered(20, 20), 4);
+        // A two-sided item keeps its back faces; the culled one beside it does not.
+        let sheet = Triangles { two_sided: true, ..item(&cw, &indices, 1) };
+        let hits = visibility(&[item(&cw, &indices, 0), sheet], &camera(S), &culling);
+        assert_eq!(hits.coverage(20, 20, 1, 0), 4);
+        assert_eq!(hits.coverage(20, 20, 0, 0), 0);
     }
 
     #[test]
@@ -1300,6 +1317,7 @@ mod tests {
                 uvs: &mesh.uvs,
                 indices: &mesh.indices[..200],
                 part: 3,
+                two_sided: false,
             },
             Triangles {
                 positions: &mesh.positions,
@@ -1307,6 +1325,7 @@ mod tests {
                 uvs: &mesh.uvs,
                 indices: &mesh.indices[200..],
                 part: 5,
+                two_sided: false,
             },
         ];
         let cam = random_scene_camera(173, 131);
@@ -1332,6 +1351,7 @@ mod tests {
             uvs: &mesh.uvs,
             indices: &mesh.indices,
             part: 1,
+            two_sided: false,
         }];
         let cam = random_scene_camera(64, 48);
         let o = RenderOptions { samples_per_pixel: SampleCount::X16, threads: None, backface_culling: false, shade_per_surface: false };
@@ -1369,7 +1389,7 @@ mod tests {
         let positions = [pix(4.0, 4.0, 0.0), pix(60.0, 8.0, -20.0), pix(12.0, 60.0, 10.0), pix(58.0, 58.0, 5.0)];
         let uvs = [Vec2::ZERO, Vec2::X, Vec2::Y, Vec2::ONE];
         let indices = [[0u32, 2, 1], [1, 2, 3]];
-        let scene = [Triangles { positions: &positions, normals: &[], uvs: &uvs, indices: &indices, part: 9 }];
+        let scene = [Triangles { positions: &positions, normals: &[], uvs: &uvs, indices: &indices, part: 9, two_sided: false }];
         let img = render(&scene, &camera(S), &FieldCheck(&positions, &uvs, &indices), &opts(SampleCount::X16));
         assert!(img.data.chunks(3).all(|p| p[1] == p[0]), "some fragment failed its checks");
         assert!(img.data.chunks(3).filter(|p| p[0] == 255).count() > 1500);

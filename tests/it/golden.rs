@@ -21,6 +21,8 @@ const CASES: &[(&str, &str, u32, u32)] = &[
     ("12@0.42+53+64", "bf1", 160, 160),
     ("9+15+16", "bm2", 160, 160),
     ("43+51+61", "wf2", 160, 160),
+    // Skin folds over itself under the eyes here: the hidden back of the fold must stay hidden.
+    ("1+2+5B+6+12+25", "wm1", 485, 480),
 ];
 
 fn render_hash(expression: &str, identity: &str, width: u32, height: u32) -> String {
