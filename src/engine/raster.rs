@@ -394,6 +394,7 @@ impl Setup {
                 codes.clear();
                 codes.extend(homogeneous.iter().map(|&h| outcode(h, near, wf, hf)));
             }
+            let backface_culling = backface_culling && !tris.two_sided;
             for (t, idx) in tris.indices.iter().enumerate() {
                 let [i0, i1, i2] = idx.map(|i| i as usize);
                 assert!(
@@ -410,7 +411,6 @@ impl Setup {
                     ClipVertex { h: homogeneous[i2], bary: Vec3::Z },
                 ];
                 let (item, triangle) = (item as u32, t as u32);
-                let backface_culling = backface_culling && !tris.two_sided;
                 if c0 | c1 | c2 == 0 {
                     setup.emit(corners, item, triangle, backface_culling);
                 } else {
