@@ -325,6 +325,60 @@ struct Setup {
     /// Triangle ids of tile t: `bin_ids[bin_start[t]..bin_start[t + 1]]`, in scene order.
     bin_start: Vec<usize>,
     bin_ids: Vec<u32>,
+    /// Working space of `new` and `bin`, kept only to be handed back for the next frame.
+    scratch: SetupScratch,
+}
+
+/// The setup's working vectors, emptied but not freed between frames.
+#[derive(Default)]
+struct SetupScratch {
+    homogeneous: Vec<Vec3>,
+    codes: Vec<u8>,
+    pairs: Vec<(u32, u32)>,
+    next: Vec<usize>,
+}
+
+/// A setup's vectors as the last frame on this thread left them (empty, with their capacity).
+/// A frame's setup needs a few megabytes; taking fresh memory from the system for every frame
+/// costs about a tenth of the frame in page faults, so each thread keeps one set.
+#[derive(Default)]
+struct SetupStorage {
+    raster: Vec<RasterTri>,
+    shade: Vec<ShadeTri>,
+    bin_start: Vec<usize>,
+    bin_ids: Vec<u32>,
+    scratch: SetupScratch,
+}
+
+thread_local! {
+    static SETUP_STORAGE: std::cell::Cell<SetupStorage> = std::cell::Cell::default();
+}
+
+impl Drop for Setup {
+    /// Hands the vectors back to this thread for its next frame.
+    fn drop(&mut self) {
+        let mut scratch = std::mem::take(&mut self.scratch);
+        scratch.homogeneous.clear();
+        scratch.codes.clear();
+        scratch.pairs.clear();
+        scratch.next.clear();
+        let storage = SetupStorage {
+            raster: emptied(&mut self.raster),
+            shade: emptied(&mut self.shade),
+            bin_start: emptied(&mut self.bin_start),
+            bin_ids: emptied(&mut self.bin_ids),
+            scratch,
+        };
+        // During thread teardown the slot may be gone; the vectors are then simply freed.
+        let _ = SETUP_STORAGE.try_with(|slot| slot.set(storage));
+    }
+}
+
+/// Takes `v`'s buffer, emptied.
+fn emptied<T>(v: &mut Vec<T>) -> Vec<T> {
+    let mut v = std::mem::take(v);
+    v.clear();
+    v
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -358,21 +412,23 @@ impl Setup {
         let view = camera.view();
         let near = camera.near();
         let (wf, hf) = (camera.width as f32, camera.height as f32);
+        // A nested setup on this thread (none today) would find the slot empty and allocate.
+        let storage = SETUP_STORAGE.try_with(|slot| slot.take()).unwrap_or_default();
         let mut setup = Setup {
-            raster: Vec::new(),
-            shade: Vec::new(),
+            raster: storage.raster,
+            shade: storage.shade,
             width: camera.width as usize,
             height: camera.height as usize,
             tiles_x: camera.width.div_ceil(TILE_SIZE) as usize,
             tiles_y: camera.height.div_ceil(TILE_SIZE) as usize,
-            bin_start: Vec::new(),
-            bin_ids: Vec::new(),
+            bin_start: storage.bin_start,
+            bin_ids: storage.bin_ids,
+            scratch: SetupScratch::default(),
         };
+        let SetupScratch { mut homogeneous, mut codes, pairs, next } = storage.scratch;
         let total: usize = scene.iter().map(|t| t.indices.len()).sum();
         setup.raster.reserve(total);
         setup.shade.reserve(total);
-        let mut homogeneous = Vec::new();
-        let mut codes = Vec::new();
         for (item, tris) in scene.iter().enumerate() {
             let n = tris.positions.len();
             assert!(
@@ -421,6 +477,7 @@ impl Setup {
                 }
             }
         }
+        setup.scratch = SetupScratch { homogeneous, codes, pairs, next };
         setup.bin();
         setup
     }
@@ -504,7 +561,8 @@ impl Setup {
     /// Fills the per-tile triangle lists, each in scene order.
     fn bin(&mut self) {
         let tile_count = self.tiles_x * self.tiles_y;
-        let mut pairs: Vec<(u32, u32)> = Vec::with_capacity(self.raster.len() * 2);
+        let mut pairs = emptied(&mut self.scratch.pairs);
+        pairs.reserve(self.raster.len() * 2);
         let ts = TILE_SIZE as i32;
         for (id, t) in self.raster.iter().enumerate() {
             let [x0, y0, x1, y1] = t.bbox;
@@ -520,21 +578,26 @@ impl Setup {
             }
         }
         // Counting sort by tile, stable, so every list stays in scene order.
-        let mut start = vec![0usize; tile_count + 1];
+        let mut start = emptied(&mut self.bin_start);
+        start.resize(tile_count + 1, 0);
         for &(tile, _) in &pairs {
             start[tile as usize + 1] += 1;
         }
         for i in 0..tile_count {
             start[i + 1] += start[i];
         }
-        let mut next = start.clone();
-        let mut ids = vec![0u32; pairs.len()];
+        let mut next = emptied(&mut self.scratch.next);
+        next.extend_from_slice(&start);
+        let mut ids = emptied(&mut self.bin_ids);
+        ids.resize(pairs.len(), 0);
         for &(tile, id) in &pairs {
             ids[next[tile as usize]] = id;
             next[tile as usize] += 1;
         }
         self.bin_start = start;
         self.bin_ids = ids;
+        self.scratch.pairs = pairs;
+        self.scratch.next = next;
     }
 
     fn tile_count(&self) -> usize {
@@ -623,12 +686,9 @@ impl TileBuffers {
 /// order. Each call sees only its own tile, so the results do not depend on scheduling.
 fn run_tiles<T: Send>(setup: &Setup, threads: Option<usize>, f: impl Fn(&mut TileBuffers, usize) -> T + Sync) -> Vec<T> {
     let n = setup.tile_count();
-    let parallel = || (0..n).into_par_iter().map_init(TileBuffers::new, |b, t| f(b, t)).collect::<Vec<T>>();
+    let parallel = || (0..n).into_par_iter().map(|t| with_tile_buffers(|b| f(b, t))).collect::<Vec<T>>();
     match threads {
-        Some(1) => {
-            let mut buffers = TileBuffers::new();
-            (0..n).map(|t| f(&mut buffers, t)).collect()
-        }
+        Some(1) => with_tile_buffers(|buffers| (0..n).map(|t| f(buffers, t)).collect()),
         Some(count) => match rayon::ThreadPoolBuilder::new().num_threads(count).build() {
             Ok(pool) => pool.install(parallel),
             // No threads to be had: the global pool gives the same bytes.
@@ -636,6 +696,19 @@ fn run_tiles<T: Send>(setup: &Setup, threads: Option<usize>, f: impl Fn(&mut Til
         },
         None => parallel(),
     }
+}
+
+thread_local! {
+    /// Each thread's tile buffers, kept between tiles and frames.
+    static TILE_BUFFERS: std::cell::Cell<Option<TileBuffers>> = const { std::cell::Cell::new(None) };
+}
+
+/// Runs `f` with this thread's tile buffers (fresh ones if they are in use or gone).
+fn with_tile_buffers<T>(f: impl FnOnce(&mut TileBuffers) -> T) -> T {
+    let mut buffers = TILE_BUFFERS.try_with(std::cell::Cell::take).ok().flatten().unwrap_or_else(TileBuffers::new);
+    let out = f(&mut buffers);
+    let _ = TILE_BUFFERS.try_with(|slot| slot.set(Some(buffers)));
+    out
 }
 
 /// Fills the tile's visibility buffer (layout: `(row * TILE + col) * n + sample`).

@@ -271,7 +271,7 @@ impl<'a> FaceShader<'a> {
             );
             colour += albedo * light.colour * wrapped * reach;
             // Only the key light is bright enough to give a visible highlight.
-            if n == 0 && n_dot_l > 0.0 {
+            if n == 0 && n_dot_l > 0.0 && specular != 0.0 {
                 let half = (light.direction + view).normalize();
                 let fresnel = 0.04 + 0.96 * (1.0 - view.dot(half).max(0.0)).powi(5);
                 let lobe = normal.dot(half).max(0.0).powf(shininess) * (shininess + 8.0) / 25.0;
@@ -419,6 +419,11 @@ fn blob(p: Vec2, centre: Vec2, radii: Vec2) -> f32 {
 /// Brows: a tapered arch above each eye, drawn as hair strands.
 fn brow_mask(rest: Vec3) -> f32 {
     if rest.z < 1.1 {
+        return 0.0;
+    }
+    // The brow's centre line stays within [7.405, 7.51] and its half-width below 0.036, so
+    // beyond 1.25 half-widths of that band (with a margin) the mask is zero: skip the rest.
+    if !(7.35..=7.57).contains(&rest.y) {
         return 0.0;
     }
     let x = rest.x.abs();
