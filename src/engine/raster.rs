@@ -762,16 +762,35 @@ fn rasterize_tile_n<const N: usize>(setup: &Setup, tile: usize, pattern: &[(i64,
             let fy = i64::from(py) * SUB;
             let fx = i64::from(x0) * SUB;
             let mut e: [i64; 3] = std::array::from_fn(|k| t.a[k] * fx + t.b[k] * fy + t.c[k]);
+            // Each edge's test is monotonic along the row, so the pixels that pass all three
+            // form one run. It starts where the last edge that rises along the row passes.
+            let skip = (0..3)
+                .filter(|&k| step_x[k] > 0 && e[k] + off_max[k] < 0)
+                .map(|k| (step_x[k] - 1 - (e[k] + off_max[k])) / step_x[k])
+                .max()
+                .unwrap_or(0);
+            if skip > i64::from(x1 - x0) {
+                continue;
+            }
+            for k in 0..3 {
+                e[k] += skip * step_x[k];
+            }
             let z_row = t.zy * (py as f32 - t.oy);
             let row_base = (py as usize - ty0) * TILE;
-            for px in x0..=x1 {
+            // Past the run's end nothing else in the row passes.
+            let mut in_run = false;
+            for px in x0 + skip as i32..=x1 {
                 let (e0, e1, e2) = (e[0], e[1], e[2]);
                 e[0] += step_x[0];
                 e[1] += step_x[1];
                 e[2] += step_x[2];
                 if (e0 + off_max[0]) | (e1 + off_max[1]) | (e2 + off_max[2]) < 0 {
+                    if in_run {
+                        break;
+                    }
                     continue; // no sample of this pixel is inside
                 }
+                in_run = true;
                 let z_pixel = t.z0 + (t.zx * (px as f32 - t.ox) + z_row);
                 let base = (row_base + px as usize - tx0) * N;
                 let depth = &mut depth[base..base + N];
