@@ -206,7 +206,7 @@ impl Visibility {
 
 /// Renders `scene` as seen by `camera`.
 pub fn render(scene: &[Triangles], camera: &Camera, shader: &impl Shader, options: &RenderOptions) -> RgbImage {
-    let setup = Setup::new(scene, camera, options.backface_culling);
+    let setup = Setup::new(scene, camera, options.backface_culling, true);
     let pattern = options.samples_per_pixel.fixed_offsets();
     let tiles = run_tiles(&setup, options.threads, |buffers, tile| {
         let (x0, y0, w, h) = setup.tile_rect(tile);
@@ -230,7 +230,7 @@ pub fn render(scene: &[Triangles], camera: &Camera, shader: &impl Shader, option
 /// Meant for tests and geometry checks (which surface covers a pixel, landmark occlusion):
 /// it materialises one `Option<Hit>` per sample, so it is slower than `render` itself.
 pub fn visibility(scene: &[Triangles], camera: &Camera, options: &RenderOptions) -> Visibility {
-    let samples = gather_samples(scene, camera, options, None, |setup, id, depth| {
+    let samples = gather_samples(scene, camera, options, true, None, |setup, id, depth| {
         let t = &setup.shade[id as usize];
         Some(Hit { item: t.item, triangle: t.triangle, distance: 1.0 / depth })
     });
@@ -241,19 +241,21 @@ pub fn visibility(scene: &[Triangles], camera: &Camera, options: &RenderOptions)
 /// The distance of the nearest surface at every sample (`+∞` where there is none), laid out
 /// like [`Visibility::samples`]: a depth map, e.g. for shadows.
 pub fn nearest_distances(scene: &[Triangles], camera: &Camera, options: &RenderOptions) -> Vec<f32> {
-    gather_samples(scene, camera, options, f32::INFINITY, |_, _, depth| 1.0 / depth)
+    gather_samples(scene, camera, options, false, f32::INFINITY, |_, _, depth| 1.0 / depth)
 }
 
 /// Rasterises `scene` and maps every covered sample's (triangle id, depth) through `value`,
 /// `empty` elsewhere; returns the values in image order (`(y * width + x) * n + sample`).
+/// `value` may look at the setup's shading data only `with_shading`.
 fn gather_samples<T: Copy + Send + Sync>(
     scene: &[Triangles],
     camera: &Camera,
     options: &RenderOptions,
+    with_shading: bool,
     empty: T,
     value: impl Fn(&Setup, u32, f32) -> T + Sync,
 ) -> Vec<T> {
-    let setup = Setup::new(scene, camera, options.backface_culling);
+    let setup = Setup::new(scene, camera, options.backface_culling, with_shading);
     let pattern = options.samples_per_pixel.fixed_offsets();
     let n = pattern.len();
     let tiles = run_tiles(&setup, options.threads, |buffers, tile| {
@@ -325,6 +327,8 @@ struct Setup {
     /// Triangle ids of tile t: `bin_ids[bin_start[t]..bin_start[t + 1]]`, in scene order.
     bin_start: Vec<usize>,
     bin_ids: Vec<u32>,
+    /// Whether `shade` is filled (else it stays empty).
+    with_shading: bool,
     /// Working space of `new` and `bin`, kept only to be handed back for the next frame.
     scratch: SetupScratch,
 }
@@ -406,7 +410,9 @@ fn outcode(h: Vec3, near: f32, width: f32, height: f32) -> u8 {
 }
 
 impl Setup {
-    fn new(scene: &[Triangles], camera: &Camera, backface_culling: bool) -> Setup {
+    /// `with_shading`: also work out what shading needs ([`ShadeTri`]); a depth-only pass
+    /// (shadows) goes without.
+    fn new(scene: &[Triangles], camera: &Camera, backface_culling: bool, with_shading: bool) -> Setup {
         assert!(camera.width > 0 && camera.height > 0, "camera image size must be positive");
         assert!(camera.width <= 16_384 && camera.height <= 16_384, "camera image size must be at most 16384");
         let view = camera.view();
@@ -423,6 +429,7 @@ impl Setup {
             tiles_y: camera.height.div_ceil(TILE_SIZE) as usize,
             bin_start: storage.bin_start,
             bin_ids: storage.bin_ids,
+            with_shading,
             scratch: SetupScratch::default(),
         };
         let SetupScratch { mut homogeneous, mut codes, pairs, next } = storage.scratch;
@@ -549,6 +556,9 @@ impl Setup {
             ox: p[0][0] as f32,
             oy: p[0][1] as f32,
         });
+        if !self.with_shading {
+            return;
+        }
         // Corner k's screen barycentric is the edge function of the opposite edge (i → j).
         let weight = std::array::from_fn(|k| {
             let (pi, pj) = (p[(k + 1) % 3], p[(k + 2) % 3]);
