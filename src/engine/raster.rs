@@ -338,6 +338,7 @@ struct Setup {
 struct SetupScratch {
     homogeneous: Vec<Vec3>,
     codes: Vec<u8>,
+    snapped: Vec<[i64; 2]>,
     pairs: Vec<(u32, u32)>,
     next: Vec<usize>,
 }
@@ -364,6 +365,7 @@ impl Drop for Setup {
         let mut scratch = std::mem::take(&mut self.scratch);
         scratch.homogeneous.clear();
         scratch.codes.clear();
+        scratch.snapped.clear();
         scratch.pairs.clear();
         scratch.next.clear();
         let storage = SetupStorage {
@@ -432,7 +434,7 @@ impl Setup {
             with_shading,
             scratch: SetupScratch::default(),
         };
-        let SetupScratch { mut homogeneous, mut codes, pairs, next } = storage.scratch;
+        let SetupScratch { mut homogeneous, mut codes, mut snapped, pairs, next } = storage.scratch;
         let total: usize = scene.iter().map(|t| t.indices.len()).sum();
         setup.raster.reserve(total);
         setup.shade.reserve(total);
@@ -456,6 +458,10 @@ impl Setup {
                     .extend(tris.positions.iter().map(|&p| camera.view_to_homogeneous_pixel(view.transform_point3(p))));
                 codes.clear();
                 codes.extend(homogeneous.iter().map(|&h| outcode(h, near, wf, hf)));
+                // Snapped once per vertex for the triangles that need no clipping (only
+                // those read it; outside the clip volume the value is meaningless).
+                snapped.clear();
+                snapped.extend(homogeneous.iter().zip(&codes).map(|(&h, &code)| if code == 0 { snap(h) } else { [0, 0] }));
             }
             let backface_culling = backface_culling && !tris.two_sided;
             for (t, idx) in tris.indices.iter().enumerate() {
@@ -475,27 +481,25 @@ impl Setup {
                 ];
                 let (item, triangle) = (item as u32, t as u32);
                 if c0 | c1 | c2 == 0 {
-                    setup.emit(corners, item, triangle, backface_culling);
+                    setup.emit(corners, [snapped[i0], snapped[i1], snapped[i2]], item, triangle, backface_culling);
                 } else {
                     let (poly, len) = clip_polygon(corners, near, wf, hf);
                     for k in 1..len.saturating_sub(1) {
-                        setup.emit([poly[0], poly[k], poly[k + 1]], item, triangle, backface_culling);
+                        let corners = [poly[0], poly[k], poly[k + 1]];
+                        setup.emit(corners, corners.map(|c| snap(c.h)), item, triangle, backface_culling);
                     }
                 }
             }
         }
-        setup.scratch = SetupScratch { homogeneous, codes, pairs, next };
+        setup.scratch = SetupScratch { homogeneous, codes, snapped, pairs, next };
         setup.bin();
         setup
     }
 
     /// Snaps, orients and stores one (possibly clipped) triangle.
-    fn emit(&mut self, v: [ClipVertex; 3], item: u32, triangle: u32, backface_culling: bool) {
-        let snap = |h: Vec3| -> [i64; 2] {
-            let inv = 1.0 / h.z;
-            [round_to_i64(h.x * inv * SUB as f32), round_to_i64(h.y * inv * SUB as f32)]
-        };
-        let mut q = v.map(|c| snap(c.h));
+    /// `q`: the corners snapped to fixed point ([`snap`]).
+    fn emit(&mut self, v: [ClipVertex; 3], q: [[i64; 2]; 3], item: u32, triangle: u32, backface_culling: bool) {
+        let mut q = q;
         let mut v = v;
         let area2 = (q[1][0] - q[0][0]) * (q[2][1] - q[0][1]) - (q[1][1] - q[0][1]) * (q[2][0] - q[0][0]);
         if area2 == 0 {
@@ -631,6 +635,12 @@ impl RasterTri {
             self.a[k] * x + self.b[k] * y + self.c[k] >= 0
         })
     }
+}
+
+/// A homogeneous pixel point `(X, Y, w)` in fixed-point pixel coordinates.
+fn snap(h: Vec3) -> [i64; 2] {
+    let inv = 1.0 / h.z;
+    [round_to_i64(h.x * inv * SUB as f32), round_to_i64(h.y * inv * SUB as f32)]
 }
 
 /// `x.round() as i64` (halves away from zero) without a call into libm: adding one half in

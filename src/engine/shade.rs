@@ -200,7 +200,8 @@ pub struct FaceShader<'a> {
     posed: &'a Posed,
     identity: &'a Identity,
     lights: [Light; 3],
-    height: u32,
+    /// The backdrop's colour on each image row (a vertical gradient), worked out once.
+    backdrop: Vec<Vec3>,
 }
 
 impl<'a> FaceShader<'a> {
@@ -218,7 +219,8 @@ impl<'a> FaceShader<'a> {
         });
         let maps = SkinMaps::cached(model, identity);
         let key_light = vec![1.0; posed.positions.len()];
-        FaceShader { maps, key_light, patterns, relief_bounds, model, posed, identity, lights: lights(), height }
+        let backdrop = (0..height).map(|y| backdrop_colour(y, height)).collect();
+        FaceShader { maps, key_light, patterns, relief_bounds, model, posed, identity, lights: lights(), backdrop }
     }
 
     /// Casts the key light's shadows from `shadow`, looked up once per vertex (offset along the
@@ -300,11 +302,16 @@ impl<'a> FaceShader<'a> {
             crease = (-h).max(0.0);
         }
 
-        // Albedo: skin with mottling, cheeks, lips, stubble, brows, hair, mouth interior.
+        // Albedo: skin with mottling, cheeks, lips, stubble, brows, hair, mouth interior. Each
+        // layer is blended in only where it is present (blending by 0 leaves the value as it is).
         let mut albedo = identity.skin * painted.mottle;
         let cheek = painted.cheek;
-        albedo = albedo.lerp(albedo * Vec3::new(1.08, 0.9, 0.88), 0.5 * cheek);
-        albedo = albedo.lerp(identity.lips, lips);
+        if cheek != 0.0 {
+            albedo = albedo.lerp(albedo * Vec3::new(1.08, 0.9, 0.88), 0.5 * cheek);
+        }
+        if lips != 0.0 {
+            albedo = albedo.lerp(identity.lips, lips);
+        }
         let beard = painted.beard * (1.0 - lips);
         if beard > 0.0 {
             let dots = smoothstep(0.4, 0.8, value_noise(rest * 260.0));
@@ -316,8 +323,12 @@ impl<'a> FaceShader<'a> {
             albedo = albedo.lerp(hair_albedo, hair);
         }
         let brow = brow_mask(rest);
-        albedo = albedo.lerp(identity.hair * 0.8, brow);
-        albedo *= 1.0 - 0.15 * crease.min(1.0);
+        if brow != 0.0 {
+            albedo = albedo.lerp(identity.hair * 0.8, brow);
+        }
+        if crease != 0.0 {
+            albedo *= 1.0 - 0.15 * crease.min(1.0);
+        }
         let oily = painted.oily;
         let specular = (0.35 + 0.35 * oily) * (1.0 - hair) * (1.0 - 0.8 * brow) + 0.6 * lips;
         let shininess = 18.0 + 30.0 * lips;
@@ -398,9 +409,15 @@ impl Shader for FaceShader<'_> {
     }
 
     fn background(&self, _x: u32, y: u32) -> Vec3 {
-        let t = y as f32 / self.height.max(1) as f32;
-        Vec3::new(0.20, 0.21, 0.23).lerp(Vec3::new(0.11, 0.115, 0.125), t)
+        let height = self.backdrop.len() as u32;
+        self.backdrop.get(y as usize).copied().unwrap_or_else(|| backdrop_colour(y, height))
     }
+}
+
+/// The backdrop on row `y` of an image `height` rows high: lighter at the top.
+fn backdrop_colour(y: u32, height: u32) -> Vec3 {
+    let t = y as f32 / height.max(1) as f32;
+    Vec3::new(0.20, 0.21, 0.23).lerp(Vec3::new(0.11, 0.115, 0.125), t)
 }
 
 // ---- painted features (rest space, decimetres; x is the person's left) ----
