@@ -817,9 +817,7 @@ fn rasterize_tile_n<const N: usize>(setup: &Setup, tile: usize, pattern: &[(i64,
                 let ids = &mut ids[base..base + N];
                 #[cfg(target_arch = "x86_64")]
                 if let Some(quad) = &quad {
-                    let full = (e0 + off_min[0]) | (e1 + off_min[1]) | (e2 + off_min[2]) >= 0;
-                    let inside = if full { 0b1111 } else { quad.inside([e0, e1, e2]) };
-                    quad.depth_test(depth, ids, z_pixel, id, inside);
+                    quad.depth_test(depth, ids, z_pixel, id, quad.inside([e0, e1, e2]));
                     continue;
                 }
                 if (e0 + off_min[0]) | (e1 + off_min[1]) | (e2 + off_min[2]) >= 0 {
@@ -908,9 +906,8 @@ mod four_samples {
                 let bits = _mm_set_epi32(8, 4, 2, 1);
                 let lanes = _mm_cmpeq_epi32(_mm_and_si128(_mm_set1_epi32(inside), bits), bits);
                 let nearer = _mm_and_ps(_mm_cmpgt_ps(z, stored), _mm_castsi128_ps(lanes));
-                if _mm_movemask_ps(nearer) == 0 {
-                    return;
-                }
+                // Stored back unconditionally: cheaper than a branch that hidden surfaces make
+                // hard to predict.
                 _mm_storeu_ps(depth.as_mut_ptr(), _mm_or_ps(_mm_and_ps(nearer, z), _mm_andnot_ps(nearer, stored)));
                 let nearer = _mm_castps_si128(nearer);
                 let old = _mm_loadu_si128(ids.as_ptr().cast());
