@@ -1209,6 +1209,33 @@ mod tests {
         assert!(blended > 40, "separate items stay anti-aliased against each other ({blended} pixels)");
     }
 
+    /// The SSE2 four-sample test stores exactly what the scalar per-sample loop stores.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn four_samples_side_by_side_match_one_at_a_time() {
+        let mut rng = Lcg(11);
+        let mut int = |range: f32| ((rng.next_f32() - 0.5) * range) as i64;
+        for case in 0..2000u32 {
+            let off: [[i64; 4]; 3] = std::array::from_fn(|_| std::array::from_fn(|_| int(2.0e6)));
+            let e: [i64; 3] = std::array::from_fn(|_| int(4.0e6));
+            let z_off: [f32; 4] = std::array::from_fn(|s| off[0][s] as f32 * 1e-7);
+            let z_pixel = int(100.0) as f32 * 0.01;
+            let stored: [f32; 4] = std::array::from_fn(|s| (off[1][s] % 100) as f32 * 0.01);
+            let (mut depth, mut ids) = (stored, [7u32, 8, 9, 10]);
+            let quad = four_samples::Quad::new(&off, &z_off);
+            quad.depth_test(&mut depth, &mut ids, z_pixel, case, quad.inside(e));
+            let (mut want_depth, mut want_ids) = (stored, [7u32, 8, 9, 10]);
+            for s in 0..4 {
+                let z = z_pixel + z_off[s];
+                if (e[0] + off[0][s]) | (e[1] + off[1][s]) | (e[2] + off[2][s]) >= 0 && z > want_depth[s] {
+                    want_depth[s] = z;
+                    want_ids[s] = case;
+                }
+            }
+            assert_eq!((depth.map(f32::to_bits), ids), (want_depth.map(f32::to_bits), want_ids), "case {case}");
+        }
+    }
+
     #[test]
     fn rounding_to_integers_matches_the_standard_library() {
         let mut rng = Lcg(7);
