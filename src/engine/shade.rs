@@ -431,6 +431,15 @@ fn lobe_power(x: f32, e: f32) -> f32 {
 }
 
 fn smoothstep(edge0: f32, edge1: f32, x: f32) -> f32 {
+    // Outside the edges the ramp below is exactly 0 or 1 (rounding is monotonic); most points
+    // of a face are, so they skip its division.
+    let (below, above) = if edge0 < edge1 { (x <= edge0, x >= edge1) } else { (x >= edge0, x <= edge1) };
+    if below {
+        return 0.0;
+    }
+    if above {
+        return 1.0;
+    }
     let t = ((x - edge0) / (edge1 - edge0)).clamp(0.0, 1.0);
     t * t * (3.0 - 2.0 * t)
 }
