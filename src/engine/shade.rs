@@ -558,13 +558,19 @@ fn groove(d: f32, w: f32) -> f32 {
 }
 
 fn segment_distance(p: Vec2, a: Vec2, b: Vec2) -> f32 {
-    let ab = b - a;
-    let t = ((p - a).dot(ab) / ab.length_squared()).clamp(0.0, 1.0);
-    (p - (a + ab * t)).length()
+    segment_distance_squared(p, a, b).sqrt()
 }
 
+fn segment_distance_squared(p: Vec2, a: Vec2, b: Vec2) -> f32 {
+    let ab = b - a;
+    let t = ((p - a).dot(ab) / ab.length_squared()).clamp(0.0, 1.0);
+    (p - (a + ab * t)).length_squared()
+}
+
+/// The distance to the nearest segment: one square root of the smallest squared distance,
+/// the same value as the smallest distance (the square root is correctly rounded, so monotonic).
 fn polyline_distance(p: Vec2, points: &[Vec2]) -> f32 {
-    points.windows(2).map(|w| segment_distance(p, w[0], w[1])).fold(f32::INFINITY, f32::min)
+    points.windows(2).map(|w| segment_distance_squared(p, w[0], w[1])).fold(f32::INFINITY, f32::min).sqrt()
 }
 
 fn forehead_inner(p: Vec2) -> f32 {
