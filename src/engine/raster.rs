@@ -338,7 +338,8 @@ struct Setup {
     scratch: SetupScratch,
 }
 
-/// The setup's working vectors, emptied but not freed between frames.
+/// The setup's working vectors, kept (not freed) between frames; each is cleared where it is
+/// filled.
 #[derive(Default)]
 struct SetupScratch {
     homogeneous: Vec<Vec3>,
@@ -348,7 +349,7 @@ struct SetupScratch {
     next: Vec<usize>,
 }
 
-/// A setup's vectors as the last frame on this thread left them (empty, with their capacity).
+/// A setup's vectors as the last frame on this thread left them (with their capacity).
 /// A frame's setup needs a few megabytes; taking fresh memory from the system for every frame
 /// costs about a tenth of the frame in page faults, so each thread keeps one set.
 #[derive(Default)]
@@ -367,18 +368,12 @@ thread_local! {
 impl Drop for Setup {
     /// Hands the vectors back to this thread for its next frame.
     fn drop(&mut self) {
-        let mut scratch = std::mem::take(&mut self.scratch);
-        scratch.homogeneous.clear();
-        scratch.codes.clear();
-        scratch.snapped.clear();
-        scratch.pairs.clear();
-        scratch.next.clear();
         let storage = SetupStorage {
             raster: emptied(&mut self.raster),
             shade: emptied(&mut self.shade),
             bin_start: emptied(&mut self.bin_start),
             bin_ids: emptied(&mut self.bin_ids),
-            scratch,
+            scratch: std::mem::take(&mut self.scratch),
         };
         // During thread teardown the slot may be gone; the vectors are then simply freed.
         let _ = SETUP_STORAGE.try_with(|slot| slot.set(storage));
