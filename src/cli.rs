@@ -12,7 +12,7 @@ use crate::engine::image::RgbImage;
 use crate::engine::sheet::ContactSheet;
 use crate::engine::{self, FrameSettings};
 use crate::engine::timeline::{ClipTiming, Ramp, Timeline};
-use crate::facs::{Catalog, EmotionTable, Expression};
+use crate::facs::{AppearanceSpec, AuCode, Catalog, EmotionTable, Expression};
 use crate::stimuli::{self, SetSpec};
 
 impl From<RampArg> for Ramp {
@@ -35,8 +35,13 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// List the Action Units facslab can show.
-    #[command(after_help = "Example:\n  facslab catalog")]
-    Catalog,
+    #[command(after_help = "Examples:\n  facslab catalog\n  facslab catalog --appearance 6      # what AU6 looks like at A-E\n  facslab catalog --appearance all    # the whole appearance specification (Markdown)")]
+    Catalog {
+        /// Print what an AU looks like (its movement, furrows, bulges, shape and levels A-E):
+        /// an AU number, or `all` for every AU.
+        #[arg(long, value_name = "AU|all")]
+        appearance: Option<String>,
+    },
 
     /// List the identities (people) facslab can render.
     #[command(after_help = "Example:\n  facslab identities")]
@@ -229,7 +234,8 @@ fn dispatch(command: Command) -> anyhow::Result<()> {
         Command::Admin(command) => crate::web::cli::admin_command(command),
         Command::Export(args) => crate::web::cli::export_command(args),
         Command::Report(args) => crate::web::cli::report_command(args),
-        Command::Catalog => {
+        Command::Catalog { appearance: Some(which) } => print_appearance(&which),
+        Command::Catalog { appearance: None } => {
             for unit in Catalog::built_in().iter() {
                 let side = if unit.unilateral { "L/R" } else { "" };
                 println!("{:>3}  {:<26} {:<22} {:<4} {}", unit.code, unit.name, unit.region.label(), side, unit.appearance);
@@ -448,5 +454,33 @@ fn render_timeline_video(
     if (w, h) != (timeline.size[0], timeline.size[1]) {
         eprintln!("note: {}x{} frames were padded to {w}x{h} for the video encoder", timeline.size[0], timeline.size[1]);
     }
+    Ok(())
+}
+
+/// `facslab catalog --appearance AU|all`: the appearance specification, as Markdown.
+fn print_appearance(which: &str) -> anyhow::Result<()> {
+    let catalog = Catalog::built_in();
+    let spec = AppearanceSpec::built_in();
+    let text = spec.to_markdown(catalog);
+    if which.eq_ignore_ascii_case("all") {
+        print!("{text}");
+        return Ok(());
+    }
+    let number = which.trim();
+    let number = number.get(..2).filter(|p| p.eq_ignore_ascii_case("au")).map_or(number, |_| &number[2..]);
+    let code = number
+        .parse::<u16>()
+        .ok()
+        .filter(|code| catalog.get(AuCode(*code)).is_some())
+        .with_context(|| {
+            let shown: String = which.chars().take(24).collect();
+            format!("--appearance: `{shown}` is not a catalog AU number or `all` (see `facslab catalog`)")
+        })?;
+    let heading = format!("\n## AU{code} ");
+    let section = text
+        .split_once(&heading)
+        .map(|(_, rest)| rest.split_once("\n## ").map_or(rest, |(own, _)| own))
+        .context("the appearance specification has no section for this AU")?;
+    print!("## AU{code} {section}");
     Ok(())
 }

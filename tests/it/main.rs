@@ -1,6 +1,7 @@
 //! Integration tests: drive the real `facslab` binary on files in a temporary directory.
 
 mod analyze;
+mod appearance;
 mod balance;
 mod browser;
 mod cli;

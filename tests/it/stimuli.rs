@@ -348,8 +348,8 @@ v.play().catch(e => { s.textContent = 'play failed ' + e; });
         }
         statuses.push(status);
     }
-    panic!("the video did not play to the end; last status of each try: {statuses:?}");
     browser.close().await;
+    panic!("the video did not play to the end; last status of each try: {statuses:?}");
 }
 
 /// The AV1 fallback (cargo feature `av1`): decodes to every frame, tagged BT.601 limited range.
