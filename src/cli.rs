@@ -174,6 +174,20 @@ enum StimuliCommand {
         /// Worker threads (default: all cores).
         #[arg(long)]
         jobs: Option<usize>,
+        /// Build only part K of N of the set (entries at positions K-1, K-1+N, …), for a cluster
+        /// job array; join the parts with `stimuli merge`.
+        #[arg(long, value_name = "K/N")]
+        shard: Option<stimuli::Shard>,
+    },
+    /// Join the shards of one set (built with --shard K/N) into the set one machine would build.
+    #[command(after_help = "Examples:\n  facslab stimuli build stimuli/sets/exp1.toml -o part1 --shard 1/2\n  facslab stimuli build stimuli/sets/exp1.toml -o part2 --shard 2/2\n  facslab stimuli merge part1 part2 -o exp1\n\nEvery part K of N must be given once, all built from the same spec, seed and facslab\nversion; each media file is checked against its sha256. The result is byte for byte the\ndirectory `stimuli build` writes on one machine. docs/cluster.md has Slurm and Kubernetes\nexamples.")]
+    Merge {
+        /// The shard directories.
+        #[arg(required = true)]
+        shards: Vec<PathBuf>,
+        /// Output directory (must be new or empty).
+        #[arg(short, long)]
+        output: PathBuf,
     },
     /// Validate a set specification and count its stimuli and frames, without rendering.
     #[command(after_help = "Example:\n  facslab stimuli check stimuli/sets/exp2.toml")]
@@ -318,14 +332,24 @@ fn dispatch(command: Command) -> anyhow::Result<()> {
             );
             Ok(())
         }
-        Command::Stimuli(StimuliCommand::Build { spec, output, jobs }) => {
+        Command::Stimuli(StimuliCommand::Merge { shards, output }) => {
+            let summary = stimuli::merge(&shards, &output).with_context(|| format!("merging into {}", output.display()))?;
+            eprintln!("{} shards merged: {} stimuli, {} files in {}", summary.shards, summary.stimuli, summary.files, output.display());
+            Ok(())
+        }
+        Command::Stimuli(StimuliCommand::Build { spec, output, jobs, shard }) => {
             let set = SetSpec::load(&spec)?;
             let started = std::time::Instant::now();
             let options = stimuli::BuildOptions { jobs, progress: true };
-            let summary = stimuli::build(&set, &output, &options).with_context(|| format!("building {}", spec.display()))?;
+            let summary = match shard {
+                Some(shard) => stimuli::build_shard(&set, shard, &output, &options).map_err(anyhow::Error::from),
+                None => stimuli::build(&set, &output, &options).map_err(anyhow::Error::from),
+            }
+            .with_context(|| format!("building {}", spec.display()))?;
             eprintln!(
-                "{}: {} stimuli in {} ({} rendered, {} up to date; {} frames) in {:.1} s",
+                "{}{}: {} stimuli in {} ({} rendered, {} up to date; {} frames) in {:.1} s",
                 set.name,
+                shard.map(|s| format!(" shard {s}")).unwrap_or_default(),
                 summary.stimuli,
                 output.display(),
                 summary.rendered,

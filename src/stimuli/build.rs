@@ -98,6 +98,11 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), BuildError> {
     std::fs::rename(&partial, path).map_err(io(path))
 }
 
+/// The manifest rows the whole set will have, in spec order, `sha256` still empty.
+pub fn plan(spec: &SetSpec) -> Vec<ManifestRow> {
+    spec.entries.iter().map(|entry| planned_row(spec, entry, &stimulus_id(spec.seed, entry.index))).collect()
+}
+
 /// The row an entry will have, with `sha256` still empty.
 fn planned_row(spec: &SetSpec, entry: &Entry, id: &str) -> ManifestRow {
     let (w, h) = spec.size;

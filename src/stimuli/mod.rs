@@ -1,7 +1,8 @@
 //! Stimulus sets: specifications (TOML, `stimuli/sets/`), their validation and expansion into
 //! entries ([`spec`]), the build that renders them with opaque file names ([`build`]; frames that several entries
 //! show are rendered once, [`frames`]), and the
-//! manifest and per-frame ground truth written beside them ([`manifest`]).
+//! manifest and per-frame ground truth written beside them ([`manifest`]); a set split into
+//! shards built anywhere and merged back into the same bytes ([`shard`]).
 //!
 //! In: a spec file. Out: a directory of media files plus `manifest.csv`/`manifest.json`.
 //! Invariant: a spec is fully validated before anything renders, and the same spec and seed give
@@ -11,8 +12,10 @@
 pub mod build;
 pub mod frames;
 pub mod manifest;
+pub mod shard;
 pub mod spec;
 
 pub use build::{BuildError, BuildOptions, BuildSummary, ENGINE_VERSION, build, render_video, stimulus_id};
 pub use manifest::{COLUMNS, ManifestRow};
+pub use shard::{MergeSummary, Shard, ShardError, build_shard, merge};
 pub use spec::{Content, Entry, SetSpec, SpecError};

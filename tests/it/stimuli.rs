@@ -371,3 +371,54 @@ fn stimuli_av1_fallback_decodes_to_every_frame() {
         assert!(text.lines().any(|l| l == expected), "ffprobe lacks {expected}:\n{text}");
     }
 }
+
+/// A set built as shards on several machines and merged is the set one machine builds, byte for
+/// byte: the shipped demo set in two shards.
+#[test]
+fn stimuli_demo_set_built_in_two_shards_and_merged_equals_the_one_machine_build() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/stimuli/sets/demo.toml")).unwrap();
+    std::fs::write(dir.path().join("demo.toml"), &spec).unwrap();
+    facslab_ok(dir.path(), &["stimuli", "build", "demo.toml", "-o", "whole"]);
+    let one = facslab_ok(dir.path(), &["stimuli", "build", "demo.toml", "-o", "part1", "--shard", "1/2", "--jobs", "1"]);
+    assert!(stderr(&one).contains("demo shard 1/2: 5 stimuli"), "{}", stderr(&one));
+    facslab_ok(dir.path(), &["stimuli", "build", "demo.toml", "-o", "part2", "--shard", "2/2"]);
+    // Given in either order.
+    facslab_ok(dir.path(), &["stimuli", "merge", "part2", "part1", "-o", "merged"]);
+    let (whole, merged) = (files(&dir.path().join("whole")), files(&dir.path().join("merged")));
+    assert_eq!(whole.keys().collect::<Vec<_>>(), merged.keys().collect::<Vec<_>>());
+    for (name, bytes) in &whole {
+        assert!(merged[name] == *bytes, "{name} differs between the merged shards and the one-machine build");
+    }
+    assert_eq!(whole.len(), 10 + 2 * 3 + 2, "10 media, 3 side files per video, 2 manifests");
+}
+
+/// Shards that do not make one set are refused, with the reason, and nothing is merged.
+#[test]
+fn stimuli_merge_refuses_shards_that_do_not_make_one_set() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("spec.toml"), TINY).unwrap();
+    std::fs::write(dir.path().join("other.toml"), TINY.replace("seed = 99", "seed = 100")).unwrap();
+    for (spec, out, shard) in [("spec.toml", "s1", "1/3"), ("spec.toml", "s2", "2/3"), ("spec.toml", "s3", "3/3"), ("other.toml", "o2", "2/3")] {
+        facslab_ok(dir.path(), &["stimuli", "build", spec, "-o", out, "--shard", shard]);
+    }
+    facslab_ok(dir.path(), &["stimuli", "build", "spec.toml", "-o", "whole"]);
+    let refused = |args: &[&str], reason: &str| {
+        let out = facslab(dir.path(), args);
+        assert!(!out.status.success(), "facslab {args:?} should fail");
+        assert!(stderr(&out).contains(reason), "facslab {args:?}: expected {reason:?} in\n{}", stderr(&out));
+    };
+    refused(&["stimuli", "merge", "s1", "s3", "-o", "m"], "shards missing: 2/3");
+    refused(&["stimuli", "merge", "s1", "s2", "s2", "s3", "-o", "m"], "shard 2/3 is given twice");
+    refused(&["stimuli", "merge", "s1", "o2", "s3", "-o", "m"], "come from different sets");
+    refused(&["stimuli", "merge", "s1", "s2", "whole", "-o", "m"], "not a shard directory");
+    refused(&["stimuli", "merge", "s1", "s2", "s3", "-o", "whole"], "not empty");
+    refused(&["stimuli", "build", "spec.toml", "-o", "x", "--shard", "4/3"], "`4/3` is not a shard");
+    assert!(!dir.path().join("m").join("manifest.json").exists(), "a refused merge writes no manifest");
+
+    // A damaged file in a shard is found by its sha256.
+    let rows: Vec<ManifestRow> = serde_json::from_str(&std::fs::read_to_string(dir.path().join("s2/manifest.json")).unwrap()).unwrap();
+    std::fs::write(dir.path().join("s2").join(&rows[0].file), b"damaged").unwrap();
+    refused(&["stimuli", "merge", "s1", "s2", "s3", "-o", "m"], "sha256 differs");
+    assert!(!dir.path().join("m").join("manifest.json").exists());
+}
