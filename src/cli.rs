@@ -132,6 +132,10 @@ enum Command {
     #[command(after_help = "Examples:\n  facslab demo                       # http://127.0.0.1:8080/s/demo-emotions, /s/demo-coding, /admin\n  facslab demo --port 9000 -o /tmp/demo\n\nEverything lives in the output directory (default facslab-demo/): the stimulus set, the\nSQLite database and the admin password (admin-password.txt). Running it again reuses them.")]
     Demo(crate::web::cli::DemoArgs),
 
+    /// Compose and preview expressions in the browser; serves the live render API.
+    #[command(after_help = "Examples:\n  facslab studio                      # then open http://127.0.0.1:8090/\n  facslab studio --port 9000\n\nAPI: POST /api/v1/render {\"expression\": \"1+2+5B\", \"identity\": \"wf1\", \"size\": \"485x480\"} -> PNG\n(the bytes `facslab render` writes); {\"timeline\": {...}} -> MP4; WebSocket /api/v1/stream.\nProtocol and client examples: docs/studio.md.")]
+    Studio(crate::studio::StudioArgs),
+
     /// Serve the study web app (participants and admin) from a study database.
     #[command(after_help = "Examples:\n  facslab serve --db lab.db\n  facslab serve --db lab.db --host 0.0.0.0 --port 8080\n\nCreate studies with `facslab study create` and the first admin with `facslab admin create`.")]
     Serve(crate::web::cli::ServeArgs),
@@ -244,6 +248,7 @@ fn dispatch(command: Command) -> anyhow::Result<()> {
     match command {
         Command::Demo(args) => crate::web::cli::demo_command(args),
         Command::Serve(args) => crate::web::cli::serve_command(args),
+        Command::Studio(args) => crate::studio::studio_command(args),
         Command::Study(command) => crate::web::cli::study_command(command),
         Command::Admin(command) => crate::web::cli::admin_command(command),
         Command::Export(args) => crate::web::cli::export_command(args),

@@ -14,4 +14,5 @@ pub mod report;
 pub mod seeded;
 pub mod stimuli;
 pub mod study;
+pub mod studio;
 pub mod web;

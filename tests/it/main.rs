@@ -11,3 +11,4 @@ mod render;
 mod server;
 mod stimuli;
 mod study;
+mod studio;

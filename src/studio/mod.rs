@@ -1,0 +1,172 @@
+//! facslab studio: the expression editor in the browser and the live render API.
+//!
+//! In: HTTP requests: the editor page and its script, JSON render requests
+//! (`POST /api/v1/render`), and expression updates over a WebSocket (`GET /api/v1/stream`).
+//! Out: the page, PNG stills and MP4 videos rendered by the engine, JSON lists of the catalog,
+//! people and presets the page is built from, and JSON errors that name the field and, for FACS
+//! notation, the token at fault.
+//!
+//! Invariants: a render request gives the bytes `facslab render` writes for the same expression,
+//! person and size (or timeline); every input is bounded before anything is allocated
+//! ([`request`]); renders run off the async runtime, at most [`RENDER_SLOTS`] at once, so a
+//! burst of requests queues instead of starving the server. Absent: studies, participants, the
+//! database; the studio keeps no state between requests.
+
+pub mod request;
+pub mod stream;
+
+use std::net::SocketAddr;
+use std::sync::Arc;
+
+use axum::extract::{DefaultBodyLimit, State};
+use axum::http::{HeaderValue, StatusCode, header};
+use axum::response::{Html, IntoResponse, Response};
+use axum::routing::{get, post};
+use axum::{Json, Router};
+use tokio::sync::Semaphore;
+use tower_http::set_header::SetResponseHeaderLayer;
+
+use crate::engine::identity::IdentityTable;
+use crate::facs::{Catalog, EmotionTable};
+pub use request::{Job, RenderRequest, Rendered, RequestError};
+
+/// Renders running at once; each uses every core, so more would only queue inside rayon.
+pub const RENDER_SLOTS: usize = 1;
+
+/// Largest request body: a timeline of many tracks fits in far less.
+pub const BODY_LIMIT: usize = 256 * 1024;
+
+/// What the handlers share.
+#[derive(Clone)]
+pub struct StudioState {
+    slots: Arc<Semaphore>,
+}
+
+impl Default for StudioState {
+    fn default() -> Self {
+        StudioState { slots: Arc::new(Semaphore::new(RENDER_SLOTS)) }
+    }
+}
+
+impl StudioState {
+    /// Renders `request` on a blocking thread once a render slot is free.
+    pub async fn render(&self, request: RenderRequest) -> Result<Rendered, RequestError> {
+        let job = request.parse()?;
+        let _slot = self.slots.clone().acquire_owned().await.map_err(|_| RequestError::Unavailable)?;
+        tokio::task::spawn_blocking(move || job.render()).await.map_err(|e| RequestError::Render(e.to_string()))?
+    }
+}
+
+const PAGE: &str = include_str!("../../assets/studio/index.html");
+const SCRIPT: &str = include_str!("../../assets/studio/studio.js");
+const STYLE: &str = include_str!("../../assets/studio/studio.css");
+
+/// The studio's routes (the page, its assets and the API).
+pub fn router(state: StudioState) -> Router {
+    let csp = "default-src 'self'; img-src 'self' blob: data:; media-src 'self' blob:; style-src 'self'; script-src 'self'; connect-src 'self' blob:; frame-ancestors 'none'; base-uri 'none'";
+    Router::new()
+        .route("/", get(|| async { Html(PAGE) }))
+        .route("/studio.js", get(|| async { ([(header::CONTENT_TYPE, "text/javascript; charset=utf-8")], SCRIPT) }))
+        .route("/studio.css", get(|| async { ([(header::CONTENT_TYPE, "text/css; charset=utf-8")], STYLE) }))
+        .route("/api/v1/catalog", get(catalog))
+        .route("/api/v1/render", post(render))
+        .route("/api/v1/timeline", post(clip_timeline))
+        .route("/api/v1/stream", get(stream::upgrade))
+        .route("/health", get(|| async { "ok" }))
+        .layer(DefaultBodyLimit::max(BODY_LIMIT))
+        .layer(SetResponseHeaderLayer::overriding(header::CONTENT_SECURITY_POLICY, HeaderValue::from_static(csp)))
+        .layer(SetResponseHeaderLayer::overriding(header::X_CONTENT_TYPE_OPTIONS, HeaderValue::from_static("nosniff")))
+        .with_state(state)
+}
+
+/// `facslab studio`'s options.
+#[derive(Debug, clap::Args)]
+pub struct StudioArgs {
+    /// Address to listen on (127.0.0.1 keeps the studio to this computer).
+    #[arg(long, default_value = "127.0.0.1")]
+    pub host: std::net::IpAddr,
+    /// Port to listen on (0 = any free port).
+    #[arg(long, default_value_t = 8090)]
+    pub port: u16,
+}
+
+/// Runs `facslab studio` until Ctrl-C.
+pub fn studio_command(args: StudioArgs) -> anyhow::Result<()> {
+    let runtime = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
+    runtime.block_on(serve(SocketAddr::new(args.host, args.port)))?;
+    Ok(())
+}
+
+/// Serves the studio on `addr` until Ctrl-C; prints the address it listens on.
+pub async fn serve(addr: SocketAddr) -> std::io::Result<()> {
+    let listener = tokio::net::TcpListener::bind(addr).await?;
+    println!("facslab studio: http://{}/", listener.local_addr()?);
+    use std::io::Write as _;
+    let _ = std::io::stdout().flush();
+    axum::serve(listener, router(StudioState::default()))
+        .with_graceful_shutdown(async {
+            let _ = tokio::signal::ctrl_c().await;
+        })
+        .await
+}
+
+/// Everything the page is built from: the AUs by region, the people, the EmFACS presets and
+/// the defaults.
+async fn catalog() -> Json<serde_json::Value> {
+    let aus: Vec<serde_json::Value> = Catalog::built_in()
+        .iter()
+        .map(|u| {
+            serde_json::json!({
+                "code": u.code, "name": u.name, "region": u.region, "unilateral": u.unilateral,
+                "kind": u.kind, "appearance": u.appearance,
+            })
+        })
+        .collect();
+    let people: Vec<serde_json::Value> =
+        IdentityTable::built_in().iter().map(|p| serde_json::json!({ "id": p.id, "description": p.description })).collect();
+    let presets: Vec<serde_json::Value> =
+        EmotionTable::built_in().iter().map(|e| serde_json::json!({ "label": e.label, "expression": e.expression.to_string() })).collect();
+    let (width, height) = crate::engine::DEFAULT_SIZE;
+    Json(serde_json::json!({
+        "aus": aus, "people": people, "presets": presets,
+        "defaults": { "identity": request::DEFAULT_IDENTITY, "size": format!("{width}x{height}") },
+        "limits": { "expression_chars": request::MAX_EXPRESSION_CHARS, "side": request::MAX_SIDE, "video_frames": request::MAX_VIDEO_FRAMES },
+    }))
+}
+
+/// `POST /api/v1/render`: JSON in, PNG or MP4 out.
+async fn render(State(state): State<StudioState>, body: axum::body::Bytes) -> Response {
+    let request = match serde_json::from_slice::<RenderRequest>(&body) {
+        Ok(request) => request,
+        Err(e) => return RequestError::Json(e.to_string()).into_response(),
+    };
+    match state.render(request).await {
+        Ok(rendered) => ([(header::CONTENT_TYPE, rendered.content_type()), (header::CACHE_CONTROL, "no-store")], rendered.bytes).into_response(),
+        Err(e) => e.into_response(),
+    }
+}
+
+/// `POST /api/v1/timeline`: a HapFACS clip of an expression as timeline JSON (what
+/// `facslab render EXPR --video --export-timeline FILE` writes).
+async fn clip_timeline(body: axum::body::Bytes) -> Response {
+    let clip = match serde_json::from_slice::<request::ClipRequest>(&body) {
+        Ok(clip) => clip,
+        Err(e) => return RequestError::Json(e.to_string()).into_response(),
+    };
+    match clip.timeline_json() {
+        Ok(json) => ([(header::CONTENT_TYPE, "application/json")], json).into_response(),
+        Err(e) => e.into_response(),
+    }
+}
+
+impl IntoResponse for RequestError {
+    fn into_response(self) -> Response {
+        let status = match self {
+            RequestError::Json(_) => StatusCode::BAD_REQUEST,
+            RequestError::Render(_) => StatusCode::INTERNAL_SERVER_ERROR,
+            RequestError::Unavailable => StatusCode::SERVICE_UNAVAILABLE,
+            _ => StatusCode::UNPROCESSABLE_ENTITY,
+        };
+        (status, Json(self.to_json())).into_response()
+    }
+}

@@ -1,0 +1,281 @@
+//! Render requests: JSON from the page or an application, parsed once into a job the engine can
+//! run.
+//!
+//! In: `{"expression": "1+2+L12C", "identity": "wf1", "size": "485x480"}` for a PNG still, or
+//! `{"timeline": {…}}` (the JSON `facslab render --export-timeline` writes) for an MP4.
+//! Out: a [`Job`] whose [`Job::render`] gives exactly the bytes `facslab render` writes for the
+//! same input, or a [`RequestError`] naming the field (and, for FACS notation, the token and its
+//! column).
+//! Invariant: lengths, sizes and frame counts are checked here, before anything is allocated or
+//! rendered; messages quote at most a short excerpt of the input.
+
+use serde::Deserialize;
+
+use crate::engine::identity::{Identity, IdentityTable};
+use crate::engine::timeline::{ClipTiming, Timeline};
+use crate::engine::{self, FrameSettings};
+use crate::facs::{Catalog, Expression};
+
+/// The person when a request names none (as `facslab render`).
+pub const DEFAULT_IDENTITY: &str = "wm1";
+/// Longest accepted FACS expression, in characters.
+pub const MAX_EXPRESSION_CHARS: usize = 2_000;
+/// Largest image side the API renders (the CLI allows 4096; a live API keeps renders short).
+pub const MAX_SIDE: u32 = 2_048;
+/// Most frames of a video render (one minute at 30 fps).
+pub const MAX_VIDEO_FRAMES: usize = 1_800;
+
+/// A render request as it arrives.
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RenderRequest {
+    #[serde(default)]
+    pub expression: Option<String>,
+    #[serde(default)]
+    pub identity: Option<String>,
+    /// `WIDTHxHEIGHT`.
+    #[serde(default)]
+    pub size: Option<String>,
+    #[serde(default)]
+    pub timeline: Option<serde_json::Value>,
+    /// With `timeline`: render only this frame (0-based) as a PNG, for scrubbing.
+    #[serde(default)]
+    pub frame: Option<usize>,
+}
+
+/// A HapFACS clip to turn into a timeline (`POST /api/v1/timeline`), as `facslab render EXPR
+/// --video [--onset S --apex S --offset S --fps N --ramp R] --export-timeline FILE` does.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ClipRequest {
+    pub expression: String,
+    #[serde(default)]
+    pub identity: Option<String>,
+    #[serde(default)]
+    pub size: Option<String>,
+    #[serde(default)]
+    pub timing: Option<ClipTiming>,
+    #[serde(default)]
+    pub fps: Option<u32>,
+}
+
+impl ClipRequest {
+    /// The timeline JSON, byte for byte what `--export-timeline` writes.
+    pub fn timeline_json(self) -> Result<String, RequestError> {
+        let expression = parse_expression(&self.expression)?;
+        let person = identity(self.identity.as_deref())?;
+        let size = self.size.as_deref().map(parse_size).transpose()?.unwrap_or(engine::DEFAULT_SIZE);
+        let timing = self.timing.unwrap_or_default();
+        for (what, v) in [("onset_s", timing.onset_s), ("apex_s", timing.apex_s), ("offset_s", timing.offset_s)] {
+            if !v.is_finite() || !(0.0..=60.0).contains(&v) {
+                return Err(RequestError::field("timing", format!("{what} {v} must be 0 to 60 seconds")));
+            }
+        }
+        let timeline = Timeline::clip(&expression, timing, self.fps.unwrap_or(30), &person.id, size);
+        timeline.validate(Catalog::built_in()).map_err(|e| RequestError::field("timing", excerpt(&e.to_string(), 200)))?;
+        if timeline.frame_count() > MAX_VIDEO_FRAMES {
+            return Err(RequestError::field("timing", format!("{} frames is more than {MAX_VIDEO_FRAMES}", timeline.frame_count())));
+        }
+        Ok(timeline.to_json())
+    }
+}
+
+/// What is wrong with a request.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum RequestError {
+    #[error("the request is not valid JSON of the render API: {0}")]
+    Json(String),
+    #[error("`{field}`: {message}")]
+    Field { field: &'static str, message: String },
+    #[error("expression: token \"{token}\" at column {column}: {message}")]
+    Notation { token: String, column: usize, message: String },
+    #[error("the render failed: {0}")]
+    Render(String),
+    #[error("the renderer is shutting down")]
+    Unavailable,
+}
+
+impl RequestError {
+    fn field(field: &'static str, message: impl Into<String>) -> RequestError {
+        RequestError::Field { field, message: message.into() }
+    }
+
+    /// `{"error": "…", "field": "…", "token": "…", "column": n}` (the last three when known).
+    pub fn to_json(&self) -> serde_json::Value {
+        let mut json = serde_json::json!({ "error": self.to_string() });
+        match self {
+            RequestError::Field { field, .. } => json["field"] = (*field).into(),
+            RequestError::Notation { token, column, .. } => {
+                json["field"] = "expression".into();
+                json["token"] = token.clone().into();
+                json["column"] = (*column).into();
+            }
+            _ => {}
+        }
+        json
+    }
+}
+
+/// At most `max` characters of `text`, with an ellipsis when cut.
+fn excerpt(text: &str, max: usize) -> String {
+    let mut cut: String = text.chars().take(max).collect();
+    if text.chars().nth(max).is_some() {
+        cut.push('…');
+    }
+    cut
+}
+
+/// A checked request, ready to render.
+#[derive(Debug, Clone)]
+pub enum Job {
+    Still { expression: Expression, identity: &'static Identity, size: (u32, u32) },
+    Video(Box<Timeline>),
+}
+
+fn frame_of(timeline: &Timeline, frame: usize) -> Result<Job, RequestError> {
+    if frame >= timeline.frame_count() {
+        return Err(RequestError::field("frame", format!("frame {frame} is past the last frame ({})", timeline.frame_count().saturating_sub(1))));
+    }
+    let expression = timeline.frame_expression(frame, Catalog::built_in()).map_err(|e| RequestError::field("timeline", e.to_string()))?;
+    let person = identity(Some(&timeline.identity))?;
+    Ok(Job::Still { expression, identity: person, size: (timeline.size[0], timeline.size[1]) })
+}
+
+/// The bytes of a render and what they are.
+#[derive(Debug, Clone)]
+pub struct Rendered {
+    pub bytes: Vec<u8>,
+    pub video: bool,
+}
+
+impl Rendered {
+    pub fn content_type(&self) -> &'static str {
+        if self.video { "video/mp4" } else { "image/png" }
+    }
+}
+
+/// Parses FACS notation, bounded, with the failing token kept for the caller.
+pub fn parse_expression(text: &str) -> Result<Expression, RequestError> {
+    if text.chars().count() > MAX_EXPRESSION_CHARS {
+        return Err(RequestError::field("expression", format!("longer than {MAX_EXPRESSION_CHARS} characters (\"{}\")", excerpt(text, 24))));
+    }
+    Catalog::built_in().parse(text).map_err(|e| RequestError::Notation { token: excerpt(&e.token, 24), column: e.column, message: e.kind.to_string() })
+}
+
+/// Parses `WIDTHxHEIGHT` with each side in 16..=[`MAX_SIDE`].
+pub fn parse_size(text: &str) -> Result<(u32, u32), RequestError> {
+    let bad = || RequestError::field("size", format!("\"{}\" is not a size like 485x480", excerpt(text, 24)));
+    let (w, h) = text.split_once(['x', 'X']).ok_or_else(bad)?;
+    let (w, h): (u32, u32) = (w.trim().parse().map_err(|_| bad())?, h.trim().parse().map_err(|_| bad())?);
+    if !(16..=MAX_SIDE).contains(&w) || !(16..=MAX_SIDE).contains(&h) {
+        return Err(RequestError::field("size", format!("{w}x{h} is out of range (each side 16..={MAX_SIDE})")));
+    }
+    Ok((w, h))
+}
+
+fn identity(id: Option<&str>) -> Result<&'static Identity, RequestError> {
+    let id = id.unwrap_or(DEFAULT_IDENTITY);
+    IdentityTable::built_in()
+        .get(id)
+        .map_err(|_| RequestError::field("identity", format!("no person \"{}\" (GET /api/v1/catalog lists them)", excerpt(id, 24))))
+}
+
+fn timeline(value: serde_json::Value) -> Result<Timeline, RequestError> {
+    let timeline = Timeline::from_json(&value.to_string()).map_err(|e| RequestError::field("timeline", excerpt(&e.to_string(), 200)))?;
+    timeline.validate(Catalog::built_in()).map_err(|e| RequestError::field("timeline", excerpt(&e.to_string(), 200)))?;
+    if timeline.size.iter().any(|side| *side > MAX_SIDE) {
+        return Err(RequestError::field("timeline", format!("size {}x{} is over {MAX_SIDE} on a side", timeline.size[0], timeline.size[1])));
+    }
+    if timeline.frame_count() > MAX_VIDEO_FRAMES {
+        return Err(RequestError::field("timeline", format!("{} frames is more than the {MAX_VIDEO_FRAMES} a request may render", timeline.frame_count())));
+    }
+    identity(Some(&timeline.identity)).map_err(|_| RequestError::field("timeline", format!("no person \"{}\"", excerpt(&timeline.identity, 24))))?;
+    Ok(timeline)
+}
+
+impl RenderRequest {
+    /// Checks the request completely; nothing renders yet.
+    pub fn parse(self) -> Result<Job, RequestError> {
+        match (self.expression, self.timeline) {
+            (Some(_), Some(_)) => Err(RequestError::field("timeline", "give either `expression` (a still) or `timeline` (a video), not both")),
+            (None, None) => Err(RequestError::field("expression", "missing: give `expression` (a still) or `timeline` (a video)")),
+            (None, Some(value)) => {
+                if self.identity.is_some() || self.size.is_some() {
+                    return Err(RequestError::field("timeline", "the person and size of a video come from its timeline"));
+                }
+                let timeline = timeline(value)?;
+                match self.frame {
+                    Some(frame) => frame_of(&timeline, frame),
+                    None => Ok(Job::Video(Box::new(timeline))),
+                }
+            }
+            (Some(_), None) if self.frame.is_some() => Err(RequestError::field("frame", "`frame` goes with `timeline`")),
+            (Some(text), None) => {
+                let expression = parse_expression(&text)?;
+                let identity = identity(self.identity.as_deref())?;
+                let size = self.size.as_deref().map(parse_size).transpose()?.unwrap_or(engine::DEFAULT_SIZE);
+                Ok(Job::Still { expression, identity, size })
+            }
+        }
+    }
+}
+
+impl Job {
+    /// Renders the job: the PNG `facslab render EXPR --identity ID --size WxH` writes, or the
+    /// MP4 `facslab render --timeline FILE` writes.
+    pub fn render(self) -> Result<Rendered, RequestError> {
+        match self {
+            Job::Still { expression, identity, size } => {
+                let settings = FrameSettings { width: size.0, height: size.1, threads: None };
+                let image = engine::render_still(&expression, identity, settings).map_err(|e| RequestError::Render(e.to_string()))?;
+                Ok(Rendered { bytes: image.encode_png(), video: false })
+            }
+            Job::Video(timeline) => {
+                let settings = FrameSettings { width: timeline.size[0], height: timeline.size[1], threads: Some(1) };
+                let bytes = crate::stimuli::render_video(&timeline, settings, None, true, None, &mut |_, _| {})
+                    .map_err(|e| RequestError::Render(e.to_string()))?;
+                Ok(Rendered { bytes, video: true })
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn request(json: serde_json::Value) -> Result<Job, RequestError> {
+        serde_json::from_value::<RenderRequest>(json).map_err(|e| RequestError::Json(e.to_string()))?.parse()
+    }
+
+    #[test]
+    fn a_bad_token_is_named_with_its_column() {
+        let err = request(serde_json::json!({ "expression": "1+2+L99C+26" })).unwrap_err();
+        assert_eq!(err.to_json()["token"], "L99C");
+        assert_eq!(err.to_json()["column"], 5);
+        assert_eq!(err.to_json()["field"], "expression");
+    }
+
+    #[test]
+    fn limits_are_checked_and_quote_only_an_excerpt() {
+        let long = "1+".repeat(50_000);
+        let err = request(serde_json::json!({ "expression": long })).unwrap_err();
+        assert!(err.to_string().len() < 120, "{err}");
+        let err = request(serde_json::json!({ "expression": "12", "size": "4096x4096" })).unwrap_err();
+        assert_eq!(err.to_json()["field"], "size");
+        let err = request(serde_json::json!({ "expression": "12", "identity": "nobody" })).unwrap_err();
+        assert_eq!(err.to_json()["field"], "identity");
+        let long = serde_json::json!({ "fps": 30, "duration_s": 1e12, "tracks": [] });
+        let err = request(serde_json::json!({ "timeline": long })).unwrap_err();
+        assert_eq!(err.to_json()["field"], "timeline", "{err}");
+    }
+
+    #[test]
+    fn a_still_or_a_video_but_not_both() {
+        assert!(matches!(request(serde_json::json!({ "expression": "12" })), Ok(Job::Still { size: (485, 480), .. })));
+        let both = serde_json::json!({ "expression": "12", "timeline": { "duration_s": 1.0, "tracks": [] } });
+        assert!(request(both).is_err());
+        assert!(request(serde_json::json!({})).is_err());
+        assert!(matches!(request(serde_json::json!({ "expresion": "12" })), Err(RequestError::Json(_))));
+    }
+}

@@ -1,0 +1,266 @@
+//! facslab studio through the real `facslab studio` process on a loopback port: the render API
+//! against `facslab render`, refusals that name the token or field, the live stream, and the
+//! editor in headless Chromium.
+
+use std::io::{BufRead, BufReader};
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::time::Duration;
+
+use futures_util::{SinkExt, StreamExt};
+use serde_json::{Value, json};
+use sha2::{Digest, Sha256};
+use tokio_tungstenite::tungstenite::Message;
+
+use crate::browser::{Browser, TIMEOUT};
+use crate::cli::facslab_ok;
+
+/// A running `facslab studio`; killed when dropped.
+struct Studio {
+    child: Child,
+    base: String,
+}
+
+impl Studio {
+    fn start() -> Studio {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_facslab"))
+            .args(["studio", "--port", "0"])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::inherit())
+            .spawn()
+            .expect("facslab studio starts");
+        let mut line = String::new();
+        BufReader::new(child.stdout.take().expect("stdout")).read_line(&mut line).expect("a line");
+        let base = line.split_whitespace().find(|w| w.starts_with("http://")).expect("the studio prints its address").to_string();
+        Studio { child, base }
+    }
+
+    fn url(&self, path: &str) -> String {
+        format!("{}{}", self.base, path.trim_start_matches('/'))
+    }
+
+    async fn post(&self, path: &str, body: &Value) -> reqwest::Response {
+        reqwest::Client::new().post(self.url(path)).json(body).send().await.expect("the studio answers")
+    }
+}
+
+impl Drop for Studio {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn sha(bytes: &[u8]) -> String {
+    hex::encode(Sha256::digest(bytes))
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn studio_render_api_gives_the_bytes_facslab_render_writes() {
+    let studio = Studio::start();
+    let dir = tempfile::tempdir().unwrap();
+    facslab_ok(dir.path(), &["render", "1+2+L12C", "--identity", "wf1", "--size", "160x160", "-o", "cli.png"]);
+    let response = studio.post("/api/v1/render", &json!({ "expression": "1+2+L12C", "identity": "wf1", "size": "160x160" })).await;
+    assert_eq!(response.status(), 200);
+    assert_eq!(response.headers()["content-type"], "image/png");
+    let api = response.bytes().await.unwrap();
+    assert!(api == std::fs::read(dir.path().join("cli.png")).unwrap(), "the API's PNG differs from facslab render's");
+
+    // The catalog the page is built from has every AU.
+    let catalog: Value = reqwest::get(studio.url("/api/v1/catalog")).await.unwrap().json().await.unwrap();
+    assert_eq!(catalog["aus"].as_array().unwrap().len(), facslab::facs::Catalog::built_in().len());
+
+    // Refusals name what is wrong.
+    let bad = studio.post("/api/v1/render", &json!({ "expression": "1+2+L99+26" })).await;
+    assert_eq!(bad.status(), 422);
+    let bad: Value = bad.json().await.unwrap();
+    assert_eq!((bad["field"].as_str(), bad["token"].as_str(), bad["column"].as_u64()), (Some("expression"), Some("L99"), Some(5)), "{bad}");
+    let big = studio.post("/api/v1/render", &json!({ "expression": "12", "size": "5000x5000" })).await;
+    assert_eq!(big.status(), 422);
+    assert_eq!(big.json::<Value>().await.unwrap()["field"], "size");
+    let garbled = reqwest::Client::new().post(studio.url("/api/v1/render")).body("{not json").send().await.unwrap();
+    assert_eq!(garbled.status(), 400);
+    let huge = studio.post("/api/v1/render", &json!({ "timeline": { "duration_s": 1e12, "tracks": [] } })).await;
+    assert_eq!(huge.status(), 422, "a 1e12-second timeline is refused before rendering");
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn studio_timeline_export_and_video_render_match_the_cli() {
+    let studio = Studio::start();
+    let dir = tempfile::tempdir().unwrap();
+    let args = ["render", "6+12", "--video", "--onset", "0.1", "--apex", "0.1", "--offset", "0.1", "--ramp", "cosine"];
+    let rest = ["--identity", "bf1", "--size", "64x64", "--export-timeline", "t.json", "-o", "cli.mp4", "--frames", "frames"];
+    facslab_ok(dir.path(), &[&args[..], &rest[..]].concat());
+    let timing = json!({ "onset_s": 0.1, "apex_s": 0.1, "offset_s": 0.1, "ramp": "cosine" });
+    let clip = json!({ "expression": "6+12", "identity": "bf1", "size": "64x64", "timing": timing });
+    let timeline = studio.post("/api/v1/timeline", &clip).await.text().await.unwrap();
+    assert_eq!(timeline, std::fs::read_to_string(dir.path().join("t.json")).unwrap());
+
+    let timeline: Value = serde_json::from_str(&timeline).unwrap();
+    let video = studio.post("/api/v1/render", &json!({ "timeline": timeline })).await;
+    assert_eq!(video.headers()["content-type"], "video/mp4");
+    assert!(video.bytes().await.unwrap() == std::fs::read(dir.path().join("cli.mp4")).unwrap(), "the API's MP4 differs");
+    let frame = studio.post("/api/v1/render", &json!({ "timeline": timeline, "frame": 4 })).await.bytes().await.unwrap();
+    assert!(frame == std::fs::read(dir.path().join("frames/000004.png")).unwrap(), "frame 4 differs from the CLI's");
+    let past = studio.post("/api/v1/render", &json!({ "timeline": timeline, "frame": 9 })).await;
+    assert_eq!(past.json::<Value>().await.unwrap()["field"], "frame");
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn studio_stream_answers_100_updates_in_order_once_each() {
+    let studio = Studio::start();
+    let ws_url = studio.url("/api/v1/stream").replacen("http://", "ws://", 1);
+    let (mut socket, _) = tokio_tungstenite::connect_async(&ws_url).await.expect("a WebSocket");
+    let expression = |seq: u64| format!("12@{:.2}+L2@{:.2}", (seq % 10) as f64 / 10.0, (seq % 7) as f64 / 7.0);
+    // Sent all at once: the server answers each, in order.
+    for seq in 0..100u64 {
+        let update = json!({ "seq": seq, "expression": expression(seq), "identity": "wm2", "size": "64x64" });
+        socket.send(Message::text(update.to_string())).await.unwrap();
+    }
+    let bad = json!({ "seq": 100, "expression": "12+12" });
+    socket.send(Message::text(bad.to_string())).await.unwrap();
+    let mut frames = Vec::new();
+    while frames.len() < 101 {
+        match tokio::time::timeout(Duration::from_secs(120), socket.next()).await.expect("an answer in time") {
+            Some(Ok(Message::Binary(bytes))) => frames.push((u64::from_be_bytes(bytes[..8].try_into().unwrap()), bytes[8..].to_vec())),
+            Some(Ok(Message::Text(text))) => {
+                let refusal: Value = serde_json::from_str(&text).unwrap();
+                assert_eq!(refusal["seq"], 100, "{refusal}");
+                assert_eq!(refusal["token"], "12", "{refusal}");
+                frames.push((100, Vec::new()));
+            }
+            Some(Ok(_)) => {}
+            other => panic!("the stream ended early: {other:?}"),
+        }
+    }
+    let seqs: Vec<u64> = frames.iter().map(|(seq, _)| *seq).collect();
+    assert_eq!(seqs, (0..=100).collect::<Vec<_>>(), "every update answered once, in order");
+    for seq in [0u64, 37, 99] {
+        let body = json!({ "expression": expression(seq), "identity": "wm2", "size": "64x64" });
+        let png = studio.post("/api/v1/render", &body).await.bytes().await.unwrap();
+        assert!(frames[seq as usize].1 == png, "frame {seq} of the stream differs from the render API's");
+    }
+    assert_ne!(frames[1].1, frames[2].1, "different updates give different frames");
+}
+
+/// The editor: sliders for every AU, notation and sliders in step, a live preview that follows
+/// the newest pose, and an exported clip that `facslab render --timeline` reproduces.
+#[tokio::test(flavor = "multi_thread")]
+async fn studio_editor_works_in_a_real_browser() {
+    let Some(browser) = Browser::start().await else { return };
+    let studio = Studio::start();
+    browser.goto(&studio.base).await;
+    browser.wait_for("document.body.dataset.ready === '1' && document.getElementById('image').dataset.expression === '0'", TIMEOUT).await;
+    let sliders = browser.execute("return document.querySelectorAll('.au input[type=range]').length;").await;
+    assert_eq!(sliders, json!(facslab::facs::Catalog::built_in().len()));
+    let neutral = pixel_sum(&browser).await;
+
+    // A click on a slider's middle moves it to 0.5: the notation follows, and so does the face.
+    browser.click("#au-12").await;
+    browser.wait_for("document.getElementById('notation').value === '12@0.5'", TIMEOUT).await;
+    browser.wait_for("document.getElementById('image').dataset.expression === '12@0.5'", TIMEOUT).await;
+    assert_ne!(pixel_sum(&browser).await, neutral, "the picture changed with the slider");
+
+    // Typed notation moves the sliders and the side menus.
+    browser.fill("#notation", "1+2+L12C").await;
+    browser.wait_for("document.getElementById('image').dataset.expression === '1+2+L12C'", TIMEOUT).await;
+    let sliders = browser
+        .execute("return ['1', '2', '12', '4'].map(c => document.getElementById('au-' + c).value).concat([document.querySelector('[data-code=\"12\"] .side').value]);")
+        .await;
+    assert_eq!(sliders, json!(["1", "1", "0.55", "0", "L"]));
+    assert!(browser.execute("return location.hash;").await.as_str().unwrap().contains("e=1%2B2%2BL12C"), "the URL keeps the face");
+
+    // A bad token is shown where it is.
+    browser.fill("#notation", "1+2+99").await;
+    browser.wait_for("!document.getElementById('notation-error').hidden", TIMEOUT).await;
+    assert!(browser.text("#notation-error").await.contains("\"99\" at column 5"));
+
+    // Undo brings the last committed face back.
+    browser.fill("#notation", "4+7").await;
+    browser.execute("document.getElementById('notation').dispatchEvent(new Event('change')); document.getElementById('notation').blur(); return true;").await;
+    browser.click("#undo").await;
+    browser.wait_for("document.getElementById('notation').value !== '4+7'", TIMEOUT).await;
+
+    // The exported clip: the timeline JSON re-renders through the CLI to the bytes the page's MP4 has.
+    browser.fill("#notation", "6+12").await;
+    browser.execute("const s = document.getElementById('size'); s.value = '242x240'; s.dispatchEvent(new Event('change'));
+                     for (const id of ['onset', 'apex', 'offset']) document.getElementById(id).value = '0.2'; return true;").await;
+    browser.click("#make-clip").await;
+    browser.wait_for("!document.getElementById('clip').hidden", TIMEOUT).await;
+    let timeline = browser.execute("return fetch(document.getElementById('download-timeline').href).then(r => r.text());").await;
+    browser.click("#make-mp4").await;
+    browser.wait_for("!document.getElementById('download-mp4').hidden", Duration::from_secs(180)).await;
+    let page_sha = browser
+        .execute("return fetch(document.getElementById('download-mp4').href).then(r => r.arrayBuffer()).then(b => crypto.subtle.digest('SHA-256', b))
+                  .then(d => [...new Uint8Array(d)].map(x => x.toString(16).padStart(2, '0')).join(''));")
+        .await;
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("t.json"), timeline.as_str().unwrap()).unwrap();
+    facslab_ok(dir.path(), &["render", "--timeline", "t.json", "-o", "cli.mp4"]);
+    assert_eq!(page_sha, json!(sha(&std::fs::read(dir.path().join("cli.mp4")).unwrap())), "the page's MP4 = facslab render --timeline");
+
+    screenshots(&browser, &studio).await;
+    browser.close().await;
+}
+
+/// The sum of the preview's pixels (changes when the face does).
+async fn pixel_sum(browser: &Browser) -> Value {
+    browser
+        .execute("const img = document.getElementById('image'); const c = document.createElement('canvas');
+                  c.width = img.naturalWidth; c.height = img.naturalHeight; const g = c.getContext('2d'); g.drawImage(img, 0, 0);
+                  return g.getImageData(0, 0, c.width, c.height).data.reduce((a, b) => a + b, 0);")
+        .await
+}
+
+/// The studio with a prototype loaded, at desktop and phone size (`FACSLAB_SCREENSHOTS=DIR`
+/// keeps them; `docs/screenshots/` has the committed ones).
+async fn screenshots(browser: &Browser, studio: &Studio) {
+    let temp = tempfile::tempdir().unwrap();
+    let dir = std::env::var_os("FACSLAB_SCREENSHOTS").map(PathBuf::from).unwrap_or_else(|| temp.path().to_path_buf());
+    browser.goto(&format!("{}#e=6%2B12%2B25&p=wf1&s=485x480&n=1", studio.base)).await;
+    browser.wait_for("document.getElementById('image').dataset.expression === '6+12+25' && document.getElementById('image-compare').complete", TIMEOUT).await;
+    for (size, width, height) in [("desktop", 1280, 900), ("phone", 390, 844)] {
+        browser.set_window_size(width, height).await;
+        browser.execute("document.activeElement.blur(); window.scrollTo(0, 0); document.querySelector('.controls').scrollTop = 0; return true;").await;
+        tokio::time::sleep(Duration::from_millis(300)).await;
+        let overflow = browser.execute("return document.documentElement.scrollWidth - document.documentElement.clientWidth;").await;
+        assert!(overflow.as_i64().unwrap() <= 0, "the studio scrolls sideways at {size} size");
+        browser.screenshot(dir.join(format!("studio-{size}.png"))).await;
+    }
+}
+
+/// Runs `program args…` in `dir`, or returns `None` (printing `skipped: …`) when the program or
+/// the module it needs is missing and `FACSLAB_REQUIRE_TOOLS` is not `1`.
+fn run_example(dir: &std::path::Path, program: &str, probe: &[&str], args: &[&str]) -> Option<std::process::Output> {
+    let available = Command::new(program).args(probe).output().is_ok_and(|o| o.status.success());
+    if !available {
+        let message = format!("{program} {} failed (python3 -m pip install websockets; Node.js 20.10 or later)", probe.join(" "));
+        assert!(std::env::var("FACSLAB_REQUIRE_TOOLS").as_deref() != Ok("1"), "FACSLAB_REQUIRE_TOOLS=1, but {message}");
+        eprintln!("skipped: {message}");
+        return None;
+    }
+    Some(Command::new(program).args(args).current_dir(dir).output().expect("the example runs"))
+}
+
+/// The client examples in docs/examples/ run against a real studio and get what they ask for.
+#[tokio::test(flavor = "multi_thread")]
+async fn studio_client_examples_run() {
+    let studio = Studio::start();
+    let dir = tempfile::tempdir().unwrap();
+    let examples = concat!(env!("CARGO_MANIFEST_DIR"), "/docs/examples");
+    let python = format!("{examples}/studio_client.py");
+    let node = format!("{examples}/studio_client.mjs");
+    let runs = [
+        ("python3", vec!["-c", "import websockets.sync.client"], vec![python.as_str(), studio.base.as_str(), "py"], ("6+12", "wf1")),
+        ("node", vec!["--experimental-websocket", "-e", "if (typeof WebSocket !== 'function') process.exit(1)"], vec!["--experimental-websocket", node.as_str(), studio.base.as_str(), "js"], ("1+2+5B+26", "bm1")),
+    ];
+    for (program, probe, args, (expression, person)) in runs {
+        let Some(output) = run_example(dir.path(), program, &probe, &args) else { continue };
+        assert!(output.status.success(), "{program} example failed:\n{}{}", String::from_utf8_lossy(&output.stdout), String::from_utf8_lossy(&output.stderr));
+        let out = dir.path().join(args.last().unwrap());
+        let frames = std::fs::read_dir(&out).unwrap().filter(|e| e.as_ref().unwrap().file_name().to_string_lossy().starts_with("stream-")).count();
+        assert_eq!(frames, 11, "{program}: one frame per update");
+        facslab_ok(dir.path(), &["render", expression, "--identity", person, "-o", "cli.png"]);
+        assert!(std::fs::read(out.join("still.png")).unwrap() == std::fs::read(dir.path().join("cli.png")).unwrap(), "{program}: still differs");
+    }
+}
