@@ -32,7 +32,9 @@ def main():
     os.makedirs(a.out, exist_ok=True)
     tile_h = round(TILE_W * (CROP[3] - CROP[1]) / (CROP[2] - CROP[0]))
     index = ["# AU contact sheets", "", "Each sheet: the eight evaluation people (rows) at neutral and A–E (columns),",
-             "rendered by `analysis/validation/calibrate.py table` and laid out by `sheets.py`.", ""]
+             "rendered by `analysis/validation/calibrate.py table` and laid out by `sheets.py`;",
+             "the measurements of the same renders are in `analysis/validation/results/calibration.csv`.",
+             "`emfacs-prototypes.jpg` is `facslab sheet --set emotions` (the EmFACS prototypes at E).", ""]
     for code in codes:
         sheet = Image.new("RGB", (TILE_W * len(COLUMNS) + 34, LABEL_H + tile_h * len(people)), "white")
         draw = ImageDraw.Draw(sheet)
