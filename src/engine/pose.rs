@@ -436,6 +436,25 @@ mod tests {
         assert!(failures.is_empty(), "{}", failures.join("\n"));
     }
 
+    /// AUs that move the lids (AU5 up, AU6/7/9 lower lid up, AU43/46 closed) leave every lid
+    /// and lash vertex in front of an eye outside the eyeball, on every identity.
+    #[test]
+    fn lids_stay_outside_the_eyeballs() {
+        for identity in IdentityTable::built_in().iter() {
+            for expression in ["5", "6", "7", "9", "43", "46", "6+7+9", "1+2+5", "L6+R43"] {
+                let (posed, prepared) = posed_on(&identity.id, expression);
+                for (eye, (radius, near)) in prepared.lids.iter().enumerate() {
+                    let centre = prepared.eye_centres[eye];
+                    for &(i, neutral_distance) in near {
+                        let distance = (posed.positions[i as usize] - centre).length();
+                        let least = neutral_distance.min(radius + LID_CLEARANCE);
+                        assert!(distance >= least - 1e-5, "{} {expression}: vertex {i} at {distance}, below {least}", identity.id);
+                    }
+                }
+            }
+        }
+    }
+
     #[test]
     fn side_weight_keeps_the_weaker_side_everywhere() {
         assert_eq!(side_weight(0.4, 0.4, -0.3), 0.4);
