@@ -455,6 +455,36 @@ mod tests {
         }
     }
 
+    /// How far the lower lip's front rises above the upper lip's front on the midline (negative:
+    /// the lips do not overlap), for `expression` on `identity`.
+    fn lip_overlap(identity: &str, expression: &str) -> f32 {
+        let model = FaceModel::embedded();
+        let lips = model.region("lips").unwrap();
+        let front = (0..model.rest.len()).filter(|&i| lips[i] > 0.5 && model.rest[i].x.abs() < 1e-4 && model.rest[i].z > 1.545);
+        let (upper, lower): (Vec<usize>, Vec<usize>) = front.partition(|&i| model.rest[i].y > 6.62);
+        let (posed, _) = posed_on(identity, expression);
+        let upper_low = upper.iter().map(|&i| posed.positions[i].y).fold(f32::INFINITY, f32::min);
+        let lower_high = lower.iter().map(|&i| posed.positions[i].y).fold(f32::NEG_INFINITY, f32::max);
+        lower_high - upper_low
+    }
+
+    /// A corrected pair of the lower face pushes the lips over each other no more than the worse
+    /// of its two AUs alone (half a millimetre of slack): the correctives undo the double push.
+    #[test]
+    fn corrected_pairs_do_not_push_one_lip_over_the_other() {
+        let mut failures = Vec::new();
+        for identity in IdentityTable::built_in().iter() {
+            for (a, b) in [("17", "24"), ("25", "26"), ("12", "25"), ("12", "15"), ("9", "10")] {
+                let single = lip_overlap(&identity.id, a).max(lip_overlap(&identity.id, b)).max(0.0);
+                let pair = lip_overlap(&identity.id, &format!("{a}+{b}"));
+                if pair > single + 0.005 {
+                    failures.push(format!("{} {a}+{b}: lips overlap {pair}, alone at most {single}", identity.id));
+                }
+            }
+        }
+        assert!(failures.is_empty(), "{}", failures.join("\n"));
+    }
+
     #[test]
     fn side_weight_keeps_the_weaker_side_everywhere() {
         assert_eq!(side_weight(0.4, 0.4, -0.3), 0.4);
