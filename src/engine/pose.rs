@@ -25,8 +25,12 @@ pub const EYE_RADIUS: f32 = 0.14954;
 /// the eyes).
 const JAW_PIVOT: Vec3 = Vec3::new(0.0, -0.284, -0.695);
 const HEAD_PIVOT: Vec3 = Vec3::new(0.0, -0.73, -1.095);
+/// How far in front of an eyeball a lid vertex may lie and still be kept outside it, and the
+/// least gap an AU leaves between lid and eyeball, decimetres.
+const LID_REACH: f32 = 0.05;
+const LID_CLEARANCE: f32 = 0.004;
 /// Width of the midline blend between left and right halves, decimetres.
-const MIDLINE_BLEND: f32 = 0.06;
+const MIDLINE_BLEND: f32 = 0.15;
 
 /// One eye after posing.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -58,6 +62,9 @@ pub struct PreparedIdentity {
     pub identity: Identity,
     pub neutral: Arc<Vec<Vec3>>,
     eye_centres: [Vec3; 2],
+    /// Per eye: the eyeball's radius, and the lid and lash vertices in front of it with their
+    /// neutral distance from its centre (see [`keep_lids_outside_the_eyes`]).
+    lids: [(f32, Vec<(u32, f32)>); 2],
 }
 
 impl PreparedIdentity {
@@ -76,13 +83,55 @@ impl PreparedIdentity {
             let base = if part == Part::EyeLeft { EYE_CENTRE_LEFT } else { EYE_CENTRE_LEFT * Vec3::new(-1.0, 1.0, 1.0) };
             base + shift
         });
-        Ok(PreparedIdentity { identity: identity.clone(), neutral: Arc::new(neutral), eye_centres })
+        let lids = [0, 1].map(|eye| lid_vertices(model, &neutral, eye, eye_centres[eye]));
+        Ok(PreparedIdentity { identity: identity.clone(), neutral: Arc::new(neutral), eye_centres, lids })
     }
 
     /// The prepared identity for `identity`, cached by id for the life of the process.
     pub fn cached(model: &FaceModel, identity: &Identity) -> Result<Arc<PreparedIdentity>, AssetError> {
         static CACHE: OnceLock<Mutex<BTreeMap<String, Arc<PreparedIdentity>>>> = OnceLock::new();
         super::cached(CACHE.get_or_init(Default::default), identity.id.clone(), || PreparedIdentity::new(model, identity))
+    }
+}
+
+/// The eyeball's radius in the identity's neutral head (`eye` 0 = left), and the skin and lash
+/// vertices in front of it within [`LID_REACH`] of its surface, with their neutral distance
+/// from its centre.
+fn lid_vertices(model: &FaceModel, neutral: &[Vec3], eye: usize, centre: Vec3) -> (f32, Vec<(u32, f32)>) {
+    let part = if eye == 0 { Part::EyeLeft } else { Part::EyeRight };
+    let rest_centre = if eye == 0 { EYE_CENTRE_LEFT } else { EYE_CENTRE_LEFT * Vec3::new(-1.0, 1.0, 1.0) };
+    let spread = |points: &[Vec3], c: Vec3| points.iter().map(|p| (*p - c).length()).sum::<f32>();
+    let range = model.part(part).vertices.clone();
+    let (now, rest): (Vec<Vec3>, Vec<Vec3>) = range.map(|i| (neutral[i as usize], model.rest[i as usize])).unzip();
+    let radius = EYE_RADIUS * spread(&now, centre) / spread(&rest, rest_centre);
+    let mut near = Vec::new();
+    for part in [Part::Skin, Part::LashesUpper, Part::LashesLower] {
+        for i in model.part(part).vertices.clone() {
+            let offset = neutral[i as usize] - centre;
+            let distance = offset.length();
+            if offset.z > 0.0 && (radius..radius + LID_REACH).contains(&distance) {
+                near.push((i, distance));
+            }
+        }
+    }
+    (radius, near)
+}
+
+/// Lids slide over the eyeball: a lid or lash vertex in front of an eye that an AU would push
+/// into it is moved back out along the eye's radius, to its neutral distance from the centre or
+/// [`LID_CLEARANCE`] above the surface, whichever is less. The neutral shape is unchanged.
+fn keep_lids_outside_the_eyes(prepared: &PreparedIdentity, positions: &mut [Vec3]) {
+    for (eye, (radius, near)) in prepared.lids.iter().enumerate() {
+        let centre = prepared.eye_centres[eye];
+        for &(i, neutral_distance) in near {
+            let p = &mut positions[i as usize];
+            let least = neutral_distance.min(radius + LID_CLEARANCE);
+            let offset = *p - centre;
+            let distance = offset.length();
+            if distance < least && distance > 0.0 {
+                *p = centre + offset * (least / distance);
+            }
+        }
     }
 }
 
@@ -100,6 +149,18 @@ fn smoothstep(edge0: f32, edge1: f32, x: f32) -> f32 {
     t * t * (3.0 - 2.0 * t)
 }
 
+/// The weight of a channel with side values `left` and `right` at rest-space `x` (the person's
+/// left is +x). The weaker side's value holds everywhere; the stronger side's excess is added on
+/// its own half only, fading in from the midline over [`MIDLINE_BLEND`]. So a one-sided AU leaves
+/// the other half of the face still, equal sides give one weight, and the midline stays smooth.
+fn side_weight(left: f32, right: f32, x: f32) -> f32 {
+    if left == right {
+        return left;
+    }
+    let (base, excess, own_x) = if left.abs() >= right.abs() { (right, left - right, x) } else { (left, right - left, -x) };
+    base + excess * smoothstep(0.0, MIDLINE_BLEND, own_x)
+}
+
 /// Poses `prepared` with `values`.
 pub fn pose(model: &FaceModel, prepared: &PreparedIdentity, values: &ChannelValues) -> Result<Posed, AssetError> {
     let neutral = &prepared.neutral;
@@ -111,24 +172,20 @@ pub fn pose(model: &FaceModel, prepared: &PreparedIdentity, values: &ChannelValu
     for (channel, left, right) in values.sided() {
         match channel {
             Channel::Target(name) => {
-                let left_of = |i: usize| smoothstep(-MIDLINE_BLEND / 2.0, MIDLINE_BLEND / 2.0, model.rest[i].x);
                 let whole = values.applies_whole(channel);
-                let weight = |i: usize| {
-                    if whole || left == right {
-                        left.max(right)
-                    } else {
-                        let l = left_of(i);
-                        left * l + right * (1.0 - l)
-                    }
-                };
+                let weight = |i: usize| if whole { left.max(right) } else { side_weight(left, right, model.rest[i].x) };
                 for (variant, factor) in resolve_variants(name, prepared) {
                     add_target(&mut positions, &*model.target(&variant)?, |i| weight(i) * factor, not_eye);
                 }
             }
             Channel::Pull(name) => {
                 let deformer = Deformer::named(name).ok_or_else(|| AssetError::Missing(format!("deformer {name}")))?;
-                let skin = model.part(Part::Skin).vertices.clone();
-                deformer.apply(&model.rest, &mut positions[skin.start as usize..skin.end as usize], left, right);
+                // The lashes ride on the lids a pull may move.
+                for part in [Part::Skin, Part::LashesUpper, Part::LashesLower] {
+                    let range = model.part(part).vertices.clone();
+                    let range = range.start as usize..range.end as usize;
+                    deformer.apply(&model.rest[range.clone()], &mut positions[range], left, right);
+                }
             }
             Channel::Shade(name) => {
                 appearance.insert(name.clone(), (left, right));
@@ -137,6 +194,7 @@ pub fn pose(model: &FaceModel, prepared: &PreparedIdentity, values: &ChannelValu
         }
     }
 
+    keep_lids_outside_the_eyes(prepared, &mut positions);
     let anchor = (prepared.eye_centres[0] + prepared.eye_centres[1]) / 2.0;
     rotate_jaw(model, &mut positions, anchor + JAW_PIVOT, values.rigid(&Channel::JawOpen))?;
     let mut eyes = turn_eyes(model, prepared, &mut positions, values);
@@ -173,21 +231,24 @@ impl Deformer {
         Deformer::built_in().iter().find(|d| d.name == name)
     }
 
-    /// Moves `positions` (the first vertices of the model, whose rest positions are `rest`)
-    /// with weights `left` and `right` for the two mirrored copies.
+    /// Moves `positions` (vertices whose rest positions are `rest`) with weights `left` and
+    /// `right` for the two mirrored copies. As with targets, the weaker side's weight drives both
+    /// copies and the stronger side's excess moves its own half only.
     fn apply(&self, rest: &[Vec3], positions: &mut [Vec3], left: f32, right: f32) {
         let centre = Vec3::from(self.centre);
-        let shift = Vec3::from(self.displacement);
         let mirror = Vec3::new(-1.0, 1.0, 1.0);
-        for (copy, weight) in [(centre, shift * left), (centre * mirror, shift * mirror * right)] {
-            if weight == Vec3::ZERO {
+        let (base, excess, stronger) = if left.abs() >= right.abs() { (right, left - right, 1.0) } else { (left, right - left, -1.0) };
+        let copies = [(centre, Vec3::from(self.displacement), 1.0), (centre * mirror, Vec3::from(self.displacement) * mirror, -1.0)];
+        for (copy, shift, sign) in copies {
+            let own = sign == stronger;
+            if base == 0.0 && !(own && excess != 0.0) {
                 continue;
             }
             for (p, r) in positions.iter_mut().zip(rest) {
                 let d = (*r - copy).length() / self.radius;
                 if d < 1.0 {
-                    let falloff = (1.0 - d * d).powi(2);
-                    *p += weight * falloff;
+                    let extra = if own { excess * smoothstep(0.0, MIDLINE_BLEND, r.x * stronger) } else { 0.0 };
+                    *p += shift * (base + extra) * (1.0 - d * d).powi(2);
                 }
             }
         }
@@ -313,20 +374,125 @@ mod tests {
     use crate::engine::rig::AuBasis;
     use crate::facs::Catalog;
 
-    fn posed(expression: &str) -> (Posed, Arc<PreparedIdentity>) {
+    fn posed_on(identity: &str, expression: &str) -> (Posed, Arc<PreparedIdentity>) {
         let model = FaceModel::embedded();
-        let identity = IdentityTable::built_in().get("wm1").unwrap();
+        let identity = IdentityTable::built_in().get(identity).unwrap();
         let prepared = PreparedIdentity::cached(model, identity).unwrap();
         let values = AuBasis::built_in().channel_values(&Catalog::built_in().parse(expression).unwrap()).unwrap();
         (pose(model, &prepared, &values).unwrap(), prepared)
     }
 
-    fn displacement(posed: &Posed, prepared: &PreparedIdentity, side: Side) -> f32 {
+    fn posed(expression: &str) -> (Posed, Arc<PreparedIdentity>) {
+        posed_on("wm1", expression)
+    }
+
+    /// Each vertex's displacement from the identity's neutral shape.
+    fn displacements(posed: &Posed, prepared: &PreparedIdentity) -> Vec<f32> {
+        posed.positions.iter().zip(prepared.neutral.iter()).map(|(p, n)| (*p - *n).length()).collect()
+    }
+
+    /// The largest displacement among vertices on `side` of the midline (by rest position).
+    fn largest_on(moved: &[f32], side: Side) -> f32 {
+        let rest = &FaceModel::embedded().rest;
+        moved.iter().zip(rest).filter(|(_, r)| side_of(**r) == side).map(|(d, _)| *d).fold(0.0, f32::max)
+    }
+
+    /// The largest displacement of a vertex on the midline itself.
+    fn largest_on_midline(moved: &[f32]) -> f32 {
+        let rest = &FaceModel::embedded().rest;
+        moved.iter().zip(rest).filter(|(_, r)| r.x.abs() < 1e-4).map(|(d, _)| *d).fold(0.0, f32::max)
+    }
+
+    /// Every one-sided AU (but AU30, whose prefix is a direction) on every identity: the largest
+    /// vertex displacement on the other half of the face is under a fifth of the largest on its
+    /// own side, and the movement fades in from the midline (the midline itself moves under a
+    /// tenth as much; the fade is a smoothstep over [`MIDLINE_BLEND`], see `side_weight`).
+    #[test]
+    fn a_unilateral_au_moves_its_own_side_only() {
+        let basis = AuBasis::built_in();
+        let identities: Vec<String> = IdentityTable::built_in().iter().map(|i| i.id.clone()).collect();
+        let mut failures = Vec::new();
+        for unit in Catalog::built_in().iter().filter(|u| u.unilateral) {
+            if basis.get(unit.code).is_some_and(|rig| rig.direction) {
+                continue;
+            }
+            for identity in &identities {
+                for (prefix, own_side, other_side) in [("L", Side::Left, Side::Right), ("R", Side::Right, Side::Left)] {
+                    let expression = format!("{prefix}{}", unit.code);
+                    let (posed, prepared) = posed_on(identity, &expression);
+                    let moved = displacements(&posed, &prepared);
+                    let own = largest_on(&moved, own_side);
+                    let other = largest_on(&moved, other_side);
+                    if !(own > 0.0 && other < own / 5.0) {
+                        failures.push(format!("{identity} {expression}: own {own}, other {other}"));
+                    }
+                    let midline = largest_on_midline(&moved);
+                    if midline >= own / 10.0 {
+                        failures.push(format!("{identity} {expression}: midline moves {midline}, own side {own}"));
+                    }
+                }
+            }
+        }
+        assert!(failures.is_empty(), "{}", failures.join("\n"));
+    }
+
+    /// AUs that move the lids (AU5 up, AU6/7/9 lower lid up, AU43/46 closed) leave every lid
+    /// and lash vertex in front of an eye outside the eyeball, on every identity.
+    #[test]
+    fn lids_stay_outside_the_eyeballs() {
+        for identity in IdentityTable::built_in().iter() {
+            for expression in ["5", "6", "7", "9", "43", "46", "6+7+9", "1+2+5", "L6+R43"] {
+                let (posed, prepared) = posed_on(&identity.id, expression);
+                for (eye, (radius, near)) in prepared.lids.iter().enumerate() {
+                    let centre = prepared.eye_centres[eye];
+                    for &(i, neutral_distance) in near {
+                        let distance = (posed.positions[i as usize] - centre).length();
+                        let least = neutral_distance.min(radius + LID_CLEARANCE);
+                        assert!(distance >= least - 1e-5, "{} {expression}: vertex {i} at {distance}, below {least}", identity.id);
+                    }
+                }
+            }
+        }
+    }
+
+    /// How far the lower lip's front rises above the upper lip's front on the midline (negative:
+    /// the lips do not overlap), for `expression` on `identity`.
+    fn lip_overlap(identity: &str, expression: &str) -> f32 {
         let model = FaceModel::embedded();
-        let skin = model.part(Part::Skin).vertices.clone();
-        skin.filter(|&i| side_of(model.rest[i as usize]) == side && model.rest[i as usize].x.abs() > 0.05)
-            .map(|i| (posed.positions[i as usize] - prepared.neutral[i as usize]).length())
-            .sum()
+        let lips = model.region("lips").unwrap();
+        let front = (0..model.rest.len()).filter(|&i| lips[i] > 0.5 && model.rest[i].x.abs() < 1e-4 && model.rest[i].z > 1.545);
+        let (upper, lower): (Vec<usize>, Vec<usize>) = front.partition(|&i| model.rest[i].y > 6.62);
+        let (posed, _) = posed_on(identity, expression);
+        let upper_low = upper.iter().map(|&i| posed.positions[i].y).fold(f32::INFINITY, f32::min);
+        let lower_high = lower.iter().map(|&i| posed.positions[i].y).fold(f32::NEG_INFINITY, f32::max);
+        lower_high - upper_low
+    }
+
+    /// A corrected pair of the lower face pushes the lips over each other no more than the worse
+    /// of its two AUs alone (half a millimetre of slack): the correctives undo the double push.
+    #[test]
+    fn corrected_pairs_do_not_push_one_lip_over_the_other() {
+        let mut failures = Vec::new();
+        for identity in IdentityTable::built_in().iter() {
+            for (a, b) in [("17", "24"), ("25", "26"), ("12", "25"), ("12", "15"), ("9", "10")] {
+                let single = lip_overlap(&identity.id, a).max(lip_overlap(&identity.id, b)).max(0.0);
+                let pair = lip_overlap(&identity.id, &format!("{a}+{b}"));
+                if pair > single + 0.005 {
+                    failures.push(format!("{} {a}+{b}: lips overlap {pair}, alone at most {single}", identity.id));
+                }
+            }
+        }
+        assert!(failures.is_empty(), "{}", failures.join("\n"));
+    }
+
+    #[test]
+    fn side_weight_keeps_the_weaker_side_everywhere() {
+        assert_eq!(side_weight(0.4, 0.4, -0.3), 0.4);
+        assert_eq!(side_weight(1.0, 0.0, -0.001), 0.0);
+        assert_eq!(side_weight(1.0, 0.0, 0.0), 0.0);
+        assert_eq!(side_weight(1.0, 0.0, MIDLINE_BLEND), 1.0);
+        assert_eq!(side_weight(0.2, 0.6, 0.01), 0.2);
+        assert_eq!(side_weight(0.2, 0.6, -1.0), 0.6);
     }
 
     #[test]
@@ -334,25 +500,6 @@ mod tests {
         let (posed, prepared) = posed("0");
         assert_eq!(posed.positions, *prepared.neutral);
         assert_eq!(posed.eyes[0].gaze, Vec3::Z);
-    }
-
-    /// Every one-sided AU (but AU30, whose prefix is a direction) moves the skin on its own
-    /// side, and the other side less than a fifth as much (summed vertex displacement).
-    #[test]
-    fn a_unilateral_au_moves_its_own_side() {
-        let basis = AuBasis::built_in();
-        for unit in Catalog::built_in().iter().filter(|u| u.unilateral) {
-            if basis.get(unit.code).is_some_and(|rig| rig.direction) {
-                continue;
-            }
-            for (prefix, own_side, other_side) in [("L", Side::Left, Side::Right), ("R", Side::Right, Side::Left)] {
-                let expression = format!("{prefix}{}", unit.code);
-                let (posed, prepared) = posed(&expression);
-                let own = displacement(&posed, &prepared, own_side);
-                let other = displacement(&posed, &prepared, other_side);
-                assert!(own > 0.0 && other < own / 5.0, "{expression}: own {own}, other {other}");
-            }
-        }
     }
 
     #[test]

@@ -2,9 +2,12 @@
 //! `stimuli/engine/au_basis.toml`), and HapFACS Eq. 1, which turns an [`Expression`] into the
 //! value of every channel on each side of the face.
 //!
-//! In: a validated expression. Out: [`ChannelValues`], per (channel, side). Invariant: a value
+//! In: a validated expression. Out: [`ChannelValues`], per (channel, side). Invariant: before
+//! the pair correctives ([`corrective`], `stimuli/engine/correctives.toml`) are added, a value
 //! never exceeds, in magnitude, the smallest maximum of the AUs that drive it (Eq. 1); the same
 //! expression always gives the same values.
+
+pub mod corrective;
 
 use std::collections::BTreeMap;
 use std::sync::OnceLock;
@@ -85,6 +88,8 @@ pub enum RigError {
     Duplicate(AuCode),
     #[error("AU {0} has no entry in the AU basis")]
     Missing(AuCode),
+    #[error("pair corrective {0}")]
+    Corrective(String),
 }
 
 #[derive(Debug, Clone)]
@@ -122,12 +127,20 @@ struct RawChannel {
     max: f32,
 }
 
+impl ChannelUse {
+    fn from_raw(raw: RawChannel) -> Result<ChannelUse, RigError> {
+        Ok(ChannelUse { channel: Channel::parse(&raw.channel)?, side: raw.side, max: raw.max })
+    }
+}
+
 /// The AU → channel table.
 #[derive(Debug, Clone)]
 pub struct AuBasis {
     rigs: BTreeMap<AuCode, AuRig>,
     /// Channels that belong to one side of the face (declared with `side`).
     one_sided: std::collections::BTreeSet<Channel>,
+    /// Pair correctives, added after Eq. 1.
+    correctives: Vec<corrective::Corrective>,
 }
 
 impl AuBasis {
@@ -135,7 +148,9 @@ impl AuBasis {
     pub fn built_in() -> &'static AuBasis {
         static BASIS: OnceLock<AuBasis> = OnceLock::new();
         BASIS.get_or_init(|| {
-            AuBasis::from_toml(include_str!("../../stimuli/engine/au_basis.toml")).expect("the built-in AU basis is valid")
+            AuBasis::from_toml(include_str!("../../stimuli/engine/au_basis.toml"))
+                .and_then(|basis| basis.with_correctives(include_str!("../../stimuli/engine/correctives.toml")))
+                .expect("the built-in AU basis and correctives are valid")
         })
     }
 
@@ -144,17 +159,27 @@ impl AuBasis {
         let mut rigs = BTreeMap::new();
         let mut one_sided = std::collections::BTreeSet::new();
         for raw in file.au {
-            let channels = raw
-                .channels
-                .into_iter()
-                .map(|c| Ok(ChannelUse { channel: Channel::parse(&c.channel)?, side: c.side, max: c.max }))
-                .collect::<Result<Vec<_>, RigError>>()?;
+            let channels = raw.channels.into_iter().map(ChannelUse::from_raw).collect::<Result<Vec<_>, RigError>>()?;
             one_sided.extend(channels.iter().filter(|c| c.side.is_some()).map(|c| c.channel.clone()));
             if rigs.insert(raw.code, AuRig { direction: raw.direction, channels }).is_some() {
                 return Err(RigError::Duplicate(raw.code));
             }
         }
-        Ok(AuBasis { rigs, one_sided })
+        Ok(AuBasis { rigs, one_sided, correctives: Vec::new() })
+    }
+
+    /// This basis with the pair correctives of `text` (replacing any it had).
+    pub fn with_correctives(mut self, text: &str) -> Result<AuBasis, RigError> {
+        let correctives = corrective::from_toml(text, |au| self.rigs.contains_key(&au))?;
+        for use_ in correctives.iter().flat_map(|c| &c.channels).filter(|u| u.side.is_some()) {
+            self.one_sided.insert(use_.channel.clone());
+        }
+        self.correctives = correctives;
+        Ok(self)
+    }
+
+    pub fn correctives(&self) -> &[corrective::Corrective] {
+        &self.correctives
     }
 
     pub fn get(&self, code: AuCode) -> Option<&AuRig> {
@@ -166,13 +191,19 @@ impl AuBasis {
         catalog.iter().find(|u| !self.rigs.contains_key(&u.code)).map_or(Ok(()), |u| Err(RigError::Missing(u.code)))
     }
 
-    /// HapFACS Eq. 1: the value of every channel on each side for `expression`.
+    /// HapFACS Eq. 1: the value of every channel on each side for `expression`, then the pair
+    /// correctives of the AU combinations it shows.
     pub fn channel_values(&self, expression: &Expression) -> Result<ChannelValues, RigError> {
         let mut sums: BTreeMap<(Channel, Side), (f32, f32)> = BTreeMap::new();
         let mut unilateral = std::collections::BTreeSet::new();
+        let mut strengths: BTreeMap<(AuCode, Side), f32> = BTreeMap::new();
         for activation in expression.activations() {
             let rig = self.get(activation.au).ok_or(RigError::Missing(activation.au))?;
             let strength = activation.strength() as f32;
+            for &side in sides_of(activation.side) {
+                let s = strengths.entry((activation.au, side)).or_insert(0.0);
+                *s = (*s + strength).min(1.0);
+            }
             for (use_, side) in driven(rig, activation.side) {
                 if activation.side != Laterality::Both && !rig.direction {
                     unilateral.insert(use_.channel.clone());
@@ -182,8 +213,27 @@ impl AuBasis {
                 entry.1 = entry.1.min(use_.max.abs());
             }
         }
-        let values = sums.into_iter().map(|(key, (sum, limit))| (key, sum.clamp(-limit, limit))).collect();
+        let mut values: BTreeMap<(Channel, Side), f32> =
+            sums.into_iter().map(|(key, (sum, limit))| (key, sum.clamp(-limit, limit))).collect();
+        for corrective in &self.correctives {
+            let one_sided = corrective.weight(&strengths, Side::Left) != corrective.weight(&strengths, Side::Right);
+            for (channel, side, value) in corrective.additions(&strengths) {
+                if one_sided {
+                    unilateral.insert(channel.clone());
+                }
+                *values.entry((channel, side)).or_insert(0.0) += value;
+            }
+        }
         Ok(ChannelValues { values, one_sided: self.one_sided.clone(), unilateral })
+    }
+}
+
+/// The sides of the face an activation shows on.
+fn sides_of(laterality: Laterality) -> &'static [Side] {
+    match laterality {
+        Laterality::Both => &Side::BOTH,
+        Laterality::Left => &[Side::Left],
+        Laterality::Right => &[Side::Right],
     }
 }
 
@@ -330,5 +380,60 @@ mod tests {
         assert_eq!(values("51").rigid(&Channel::HeadYaw), 30.0);
         assert_eq!(values("19B").rigid(&Channel::JawOpen), 0.3 * 6.0);
         assert!(values("0").sided().is_empty());
+    }
+
+    fn corrective(text: &str) -> Result<AuBasis, RigError> {
+        AuBasis::from_toml(include_str!("../../stimuli/engine/au_basis.toml")).unwrap().with_correctives(text)
+    }
+
+    #[test]
+    fn the_pair_correctives_cover_the_combinations_that_fight() {
+        let basis = AuBasis::built_in();
+        for pair in [[1, 2], [1, 4], [6, 12], [9, 10], [12, 15], [17, 24], [25, 26], [12, 25]] {
+            let aus = pair.map(AuCode).to_vec();
+            assert!(basis.correctives().iter().any(|c| c.aus == aus), "{pair:?} has no corrective");
+        }
+    }
+
+    #[test]
+    fn every_corrective_target_exists() {
+        let model = crate::engine::asset::FaceModel::embedded();
+        for use_ in AuBasis::built_in().correctives().iter().flat_map(|c| &c.channels) {
+            if let Channel::Target(name) = &use_.channel {
+                for group in ["african", "asian", "caucasian"] {
+                    let name = name.replace("{ethnic}", group);
+                    assert!(model.has_target(&name), "{name}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_corrective_acts_only_on_the_sides_showing_all_its_aus() {
+        let squint = target("faceunits/cheekSquintLeft");
+        // 6+12: Eq. 1 clamps the shared cheek squint to 0.25; the corrective adds 0.75 back.
+        assert!((values("6+12").get(&squint, Side::Left) - 1.0).abs() < 1e-6);
+        assert!((values("6C+12").get(&squint, Side::Left) - (0.25 + 0.55 * 0.75)).abs() < 1e-6);
+        // 12 alone, or 6 on the other side only: no corrective.
+        assert_eq!(values("12").get(&squint, Side::Left), 0.25);
+        assert_eq!(values("R6+12").get(&squint, Side::Left), 0.25);
+        let right = target("faceunits/cheekSquintRight");
+        assert!((values("R6+12").get(&right, Side::Right) - 1.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn bad_correctives_are_refused_with_the_reason() {
+        let one = "[[corrective]]\naus = [6]\nwhy = \"x\"\nchannels = []\n";
+        assert!(corrective(one).unwrap_err().to_string().contains("2..=4 different AUs"));
+        let unknown = "[[corrective]]\naus = [6, 99]\nwhy = \"x\"\nchannels = []\n";
+        assert!(corrective(unknown).unwrap_err().to_string().contains("AU 99 is not in the basis"));
+        let twice = "[[corrective]]\naus = [6, 12]\nwhy = \"x\"\nchannels = []\n[[corrective]]\naus = [12, 6]\nwhy = \"y\"\nchannels = []\n";
+        assert!(corrective(twice).unwrap_err().to_string().contains("appears twice"));
+        let rigid = "[[corrective]]\naus = [6, 12]\nwhy = \"x\"\nchannels = [{ channel = \"jaw.open\", max = 1.0 }]\n";
+        assert!(corrective(rigid).unwrap_err().to_string().contains("rigid channel"));
+        let channel = "[[corrective]]\naus = [6, 12]\nwhy = \"x\"\nchannels = [{ channel = \"nope\", max = 1.0 }]\n";
+        assert!(matches!(corrective(channel), Err(RigError::UnknownChannel(_))));
+        let field = "[[corrective]]\naus = [6, 12]\nwhom = \"x\"\nchannels = []\n";
+        assert!(matches!(corrective(field), Err(RigError::Toml(_))));
     }
 }
