@@ -12,6 +12,7 @@ pub mod design;
 pub mod session;
 pub mod task;
 pub mod templates;
+pub mod worker;
 
 pub use design::{DesignError, Platform, StudyDesign, TaskKind};
 pub use session::SessionState;
