@@ -327,6 +327,9 @@ pub fn believability_item() -> LikertItem {
 
 impl StudyDesign {
     pub fn from_toml(text: &str) -> Result<StudyDesign, DesignError> {
+        if text.len() > MAX_DESIGN_BYTES {
+            return Err(fail("file", format!("{} bytes is over the 64 KiB a study design may have", text.len())));
+        }
         let raw: RawDesign = toml::from_str(text).map_err(|e| fail(toml_field(&e), e.message().to_string()))?;
         raw.validate()
     }
@@ -350,7 +353,26 @@ fn toml_field(e: &toml::de::Error) -> String {
     }
 }
 
+/// Longest design text read.
+pub const MAX_DESIGN_BYTES: usize = 64 * 1024;
+
 impl RawDesign {
+    /// Upper bounds on the numbers that size a participant's plan (checked before any plan is made).
+    fn check_bounds(&self) -> Result<(), DesignError> {
+        let bounds = [
+            ("trials_per_participant", self.trials_per_participant, 5_000),
+            ("ratings_per_stimulus", self.ratings_per_stimulus, 100_000),
+            ("practice_trials", self.practice_trials, 50),
+            ("attention.checks", self.attention.checks.len(), 50),
+            ("rating.item", self.rating.item.len(), 20),
+            ("reservation_minutes", self.reservation_minutes as usize, 7 * 24 * 60),
+        ];
+        match bounds.into_iter().find(|(_, value, max)| value > max) {
+            Some((field, value, max)) => Err(fail(field, format!("{value} is over the limit of {max}"))),
+            None => Ok(()),
+        }
+    }
+
     fn validate(self) -> Result<StudyDesign, DesignError> {
         let slug_ok = !self.slug.is_empty()
             && self.slug.len() <= 64
@@ -372,6 +394,7 @@ impl RawDesign {
         if self.reservation_minutes == 0 {
             return Err(fail("reservation_minutes", "must be at least 1"));
         }
+        self.check_bounds()?;
         let items = match self.task {
             TaskKind::Emotion => self.emotion.believability.then(believability_item).into_iter().collect(),
             TaskKind::Rating => {
