@@ -97,12 +97,26 @@ pub struct AuCount {
     pub count: u64,
 }
 
-/// A statistic that may be undefined on the data, with the reason when it is.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+/// A statistic that may be undefined on the data, with the reason when it is. In
+/// `report.json` it is the number itself, or `{"undefined": "why"}` (as [`super::outcome::Outcome`]).
+#[derive(Debug, Clone, PartialEq)]
 pub struct Maybe {
     pub value: Option<f64>,
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub undefined: Option<String>,
+}
+
+impl Serialize for Maybe {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeMap;
+        match self.value {
+            Some(v) => serializer.serialize_f64(v),
+            None => {
+                let mut map = serializer.serialize_map(Some(1))?;
+                map.serialize_entry("undefined", self.undefined.as_deref().unwrap_or("no value"))?;
+                map.end()
+            }
+        }
+    }
 }
 
 impl Maybe {

@@ -323,16 +323,11 @@ pub(super) fn page(report: &Report, plots: &[(String, String)]) -> String {
             h.0.push_str("<h3>Two-way ANOVA: emotion × intensity (per media)</h3>");
             let mut rows = Vec::new();
             for a in &r.anova {
-                for (ty, t) in [("II", &a.type_ii), ("III", &a.type_iii)] {
+                for (ty, t) in [("II", a.type_ii.as_result()), ("III", a.type_iii.as_result())] {
                     match t {
                         Ok(t) => {
                             for row in &t.rows {
-                                let term = match row.term.as_str() {
-                                    "A" => "emotion",
-                                    "B" => "intensity",
-                                    "A:B" => "emotion × intensity",
-                                    _ => "residual",
-                                };
+                                let term = row.term.replace(':', " × ");
                                 rows.push(vec![
                                     a.media.label().into(),
                                     esc(&a.outcome),
@@ -358,7 +353,7 @@ pub(super) fn page(report: &Report, plots: &[(String, String)]) -> String {
             h.0.push_str("<h3>Group comparisons (per-participant scores; per-emotion tests in group_tests.csv)</h3>");
             let mut rows = Vec::new();
             for g in overall {
-                for (name, t) in [("Student", &g.student), ("Welch", &g.welch)] {
+                for (name, t) in [("Student", g.student.as_result()), ("Welch", g.welch.as_result())] {
                     let d = |x: &Option<crate::analysis::rating::Describe>| x.as_ref().map_or("–".into(), |d| format!("{} (n={})", fmt(d.mean, 3), d.n));
                     let mut cells = vec![esc(&g.condition), esc(&g.outcome), format!("{} vs {}", esc(&g.group_a), esc(&g.group_b)), d(&g.a), d(&g.b), name.into()];
                     match t {

@@ -172,7 +172,7 @@ pub(super) fn all(report: &Report) -> Vec<(String, String)> {
             "ci95_low", "ci95_high", "undefined",
         ]);
         for g in &r.group_tests {
-            for (name, test) in [("student", &g.student), ("welch", &g.welch)] {
+            for (name, test) in [("student", g.student.as_result()), ("welch", g.welch.as_result())] {
                 let mut cells = vec![g.condition.clone(), g.emotion.clone(), g.outcome.clone(), g.group_a.clone(), g.group_b.clone()];
                 for d in [&g.a, &g.b] {
                     let d = d.as_ref();
@@ -183,7 +183,7 @@ pub(super) fn all(report: &Report) -> Vec<(String, String)> {
                     Ok(t) => cells.extend([num(t.t), num(t.df), num(t.p_two_sided), num(t.cohen_d), num(t.ci.0), num(t.ci.1), String::new()]),
                     Err(e) => {
                         cells.extend(vec![String::new(); 6]);
-                        cells.push(e.clone());
+                        cells.push(e.to_string());
                     }
                 }
                 t.row(cells);
@@ -193,16 +193,11 @@ pub(super) fn all(report: &Report) -> Vec<(String, String)> {
 
         let mut t = Table::new(&["media", "outcome", "n", "ss_type", "term", "ss", "df", "f", "p", "partial_eta2", "undefined"]);
         for a in &r.anova {
-            for (ty, table) in [("II", &a.type_ii), ("III", &a.type_iii)] {
+            for (ty, table) in [("II", a.type_ii.as_result()), ("III", a.type_iii.as_result())] {
                 match table {
                     Ok(table) => {
                         for row in &table.rows {
-                            let term = match row.term.as_str() {
-                                "A" => a.a.to_string(),
-                                "B" => a.b.to_string(),
-                                "A:B" => format!("{}:{}", a.a, a.b),
-                                other => other.to_lowercase(),
-                            };
+                            let term = row.term.clone();
                             t.row(vec![
                                 a.media.label().into(),
                                 a.outcome.clone(),
@@ -221,7 +216,7 @@ pub(super) fn all(report: &Report) -> Vec<(String, String)> {
                     Err(e) => {
                         let mut cells = vec![a.media.label().into(), a.outcome.clone(), a.n.to_string(), ty.into()];
                         cells.extend(vec![String::new(); 6]);
-                        cells.push(e.clone());
+                        cells.push(e.to_string());
                         t.row(cells);
                     }
                 }
