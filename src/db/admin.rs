@@ -136,14 +136,15 @@ impl Db {
         Ok(Some(token))
     }
 
+    /// The row `sql` finds for a secret that is live now (`sql` takes the secret's SHA-256 and now).
+    async fn live_secret(&self, sql: &'static str, token: &str) -> Result<Option<sqlx::sqlite::SqliteRow>, DbError> {
+        Ok(sqlx::query(sql).bind(token_sha256(token)).bind(now_ms()).fetch_optional(&self.reader).await?)
+    }
+
     /// The admin behind a session cookie, if the session is live.
     pub async fn admin_session(&self, token: &str) -> Result<Option<AdminSession>, DbError> {
-        let row = sqlx::query("SELECT a.id, a.username, a.role FROM admin_sessions s JOIN admins a ON a.id = s.admin_id WHERE s.token_sha256 = ? AND s.expires_at > ?")
-            .bind(token_sha256(token))
-            .bind(now_ms())
-            .fetch_optional(&self.reader)
-            .await?;
-        Ok(row.and_then(|r| {
+        let sql = "SELECT a.id, a.username, a.role FROM admin_sessions s JOIN admins a ON a.id = s.admin_id WHERE s.token_sha256 = ? AND s.expires_at > ?";
+        Ok(self.live_secret(sql, token).await?.and_then(|r| {
             Some(AdminSession { admin_id: r.get(0), username: r.get(1), role: Role::parse(r.get::<&str, _>(2))?, csrf_token: csrf_token(token) })
         }))
     }
@@ -190,12 +191,8 @@ impl Db {
     /// What an API token reaches now: `None` when it is unknown or expired. Its role is capped
     /// by its owner's role now.
     pub async fn api_token_scope(&self, token: &str) -> Result<Option<ApiScope>, DbError> {
-        let row = sqlx::query("SELECT t.study_id, t.role, a.role FROM api_tokens t JOIN admins a ON a.id = t.admin_id WHERE t.token_sha256 = ? AND t.expires_at > ?")
-            .bind(token_sha256(token))
-            .bind(now_ms())
-            .fetch_optional(&self.reader)
-            .await?;
-        Ok(row.and_then(|r| {
+        let sql = "SELECT t.study_id, t.role, a.role FROM api_tokens t JOIN admins a ON a.id = t.admin_id WHERE t.token_sha256 = ? AND t.expires_at > ?";
+        Ok(self.live_secret(sql, token).await?.and_then(|r| {
             let role = Role::parse(r.get::<&str, _>(1))?.min(Role::parse(r.get::<&str, _>(2))?);
             Some(ApiScope { study_id: r.get(0), role })
         }))
