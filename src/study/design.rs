@@ -378,7 +378,7 @@ impl RawDesign {
             && self.slug.len() <= 64
             && self.slug.bytes().all(|b| b.is_ascii_lowercase() || b.is_ascii_digit() || b == b'-' || b == b'_');
         if !slug_ok {
-            return Err(fail("slug", format!("\"{}\" must be 1-64 characters of a-z, 0-9, '-' or '_'", self.slug)));
+            return Err(fail("slug", format!("\"{}\" must be 1-64 characters of a-z, 0-9, '-' or '_'", super::excerpt(&self.slug, 64))));
         }
         for (field, text) in [("title", &self.title), ("group", &self.group), ("stimuli", &self.stimuli), ("consent", &self.consent)] {
             if text.trim().is_empty() {
@@ -463,7 +463,7 @@ fn check_attention(task: TaskKind, policy: &AttentionPolicy, items: &[LikertItem
             (_, measure) => items.iter().any(|item| item.measure == measure && check.value.parse::<u8>().is_ok_and(|v| item.values().contains(&v))),
         };
         if !ok {
-            return Err(fail(field, format!("answer {}=\"{}\" is not a possible answer of this {} task", check.measure, check.value, task.as_str())));
+            return Err(fail(field, format!("answer {}=\"{}\" is not a possible answer of this {} task", super::excerpt(&check.measure, 32), super::excerpt(&check.value, 32), task.as_str())));
         }
     }
     Ok(())

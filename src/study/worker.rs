@@ -43,11 +43,8 @@ pub fn clean(raw: &str) -> String {
 
 /// A short, printable excerpt of a refused value (at most 24 characters).
 fn excerpt(text: &str) -> String {
-    let mut out: String = text.chars().filter(|c| !invisible(*c)).take(24).collect();
-    if text.chars().count() > 24 {
-        out.push('…');
-    }
-    out
+    let visible: String = text.chars().take(MAX_RAW_LEN).filter(|c| !invisible(*c)).collect();
+    super::excerpt(&visible, 24)
 }
 
 /// The stored spelling of `raw` as a worker id of `platform`.

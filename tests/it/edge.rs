@@ -352,3 +352,22 @@ fn edge_a_huge_video_is_refused_at_once_and_writes_nothing() {
         assert!(written.is_empty(), "{written:?}");
     }
 }
+
+#[tokio::test(flavor = "multi_thread")]
+async fn edge_an_oversized_answer_is_refused_quoting_a_short_excerpt() {
+    let (lab, server, http) = emotion_lab("emo", "");
+    let token = start(&http, &server, "emo", &[]).await;
+    consent_and_demographics(&http, &server, &token).await;
+    let position = current_position(&http, &server, &token).await.unwrap();
+    let huge = "j".repeat(50_000);
+    for fields in [[("emotion", huge.as_str()), ("believability", "2")], [("emotion", "fear"), (huge.as_str(), "2")]] {
+        let (status, body) = save(&http, &server, &token, position, "oversized-answer-1", &fields).await;
+        assert_eq!(status, 422);
+        assert!(body.to_string().len() < 400, "the error quotes {} bytes", body.to_string().len());
+    }
+    // A design with an over-long slug is refused by the CLI with a short message.
+    std::fs::write(lab.path().join("long.toml"), emotion_design(&"x".repeat(5_000), "")).unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_facslab")).args(["study", "check", "long.toml"]).current_dir(lab.path()).output().unwrap();
+    assert!(!out.status.success());
+    assert!(out.stderr.len() < 300, "{} bytes", out.stderr.len());
+}
