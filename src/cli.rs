@@ -286,6 +286,7 @@ fn dispatch(command: Command) -> anyhow::Result<()> {
             codec,
         } => {
             let is_video = video || timeline.is_some();
+            check_expression_length(expression.as_deref().unwrap_or_default())?;
             if !is_video {
                 if export_timeline.is_some() || frames.is_some() || poster.is_some() {
                     bail!("--export-timeline, --frames and --poster go with --video or --timeline");
@@ -303,16 +304,24 @@ fn dispatch(command: Command) -> anyhow::Result<()> {
             }
             let timeline = match timeline {
                 Some(path) => {
+                    let bytes = std::fs::metadata(&path).with_context(|| format!("reading {}", path.display()))?.len();
+                    if bytes > engine::timeline::MAX_JSON_BYTES as u64 {
+                        bail!("{} is {bytes} bytes; a timeline has at most 4 MiB", path.display());
+                    }
                     let text = std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
                     Timeline::from_json(&text).with_context(|| format!("in {}", path.display()))?
                 }
                 None => {
                     let expression = Catalog::built_in().parse(expression.as_deref().unwrap_or_default())?;
                     let timing = ClipTiming { onset_s: onset, apex_s: apex, offset_s: offset, ramp: ramp.into() };
+                    let max = engine::timeline::MAX_DURATION_S;
                     for (what, v) in [("--onset", onset), ("--apex", apex), ("--offset", offset)] {
-                        if !v.is_finite() || v < 0.0 {
-                            bail!("{what} {v} must be a duration of 0 seconds or more");
+                        if !v.is_finite() || !(0.0..=max).contains(&v) {
+                            bail!("{what} {} must be a duration from 0 to {max} seconds", engine::timeline::short_number(v));
                         }
+                    }
+                    if timing.total_s() > max {
+                        bail!("the clip lasts {} s; a video lasts at most {max} s", engine::timeline::short_number(timing.total_s()));
                     }
                     let identity = identity.unwrap_or_else(|| "wm1".into());
                     Timeline::clip(&expression, timing, fps, &identity, size.unwrap_or(engine::DEFAULT_SIZE))
@@ -426,6 +435,19 @@ fn write_png(image: &RgbImage, path: &Path) -> anyhow::Result<()> {
     let partial = path.with_extension("png.partial");
     std::fs::write(&partial, image.encode_png()).with_context(|| format!("writing {}", partial.display()))?;
     std::fs::rename(&partial, path).with_context(|| format!("moving the image into place at {}", path.display()))
+}
+
+/// Longest FACS expression accepted on the command line (the longest real one, every AU of
+/// the catalog with a side and an intensity, is well under this).
+const MAX_EXPRESSION_LEN: usize = 512;
+
+/// Refuses an over-long expression before parsing it, quoting only its start.
+fn check_expression_length(expression: &str) -> anyhow::Result<()> {
+    if expression.len() > MAX_EXPRESSION_LEN {
+        let start: String = expression.chars().take(32).collect();
+        bail!("the expression \"{start}…\" has {} characters; at most {MAX_EXPRESSION_LEN}", expression.len());
+    }
+    Ok(())
 }
 
 /// Renders a timeline to an MP4 (frames in parallel), with the optional extra outputs.

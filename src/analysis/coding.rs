@@ -97,12 +97,26 @@ pub struct AuCount {
     pub count: u64,
 }
 
-/// A statistic that may be undefined on the data, with the reason when it is.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+/// A statistic that may be undefined on the data, with the reason when it is. In
+/// `report.json` it is the number itself, or `{"undefined": "why"}` (as [`super::outcome::Outcome`]).
+#[derive(Debug, Clone, PartialEq)]
 pub struct Maybe {
     pub value: Option<f64>,
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub undefined: Option<String>,
+}
+
+impl Serialize for Maybe {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeMap;
+        match self.value {
+            Some(v) => serializer.serialize_f64(v),
+            None => {
+                let mut map = serializer.serialize_map(Some(1))?;
+                map.serialize_entry("undefined", self.undefined.as_deref().unwrap_or("no value"))?;
+                map.end()
+            }
+        }
+    }
 }
 
 impl Maybe {
@@ -238,6 +252,186 @@ fn join(aus: &[u16]) -> String {
     aus.iter().map(u16::to_string).collect::<Vec<_>>().join(" + ")
 }
 
+/// One combination's tallies: stimuli, answers, summed counts, false positives, recognised AUs.
+type ComboTally = (usize, usize, Counts, BTreeMap<u16, u64>, BTreeSet<u16>);
+
+/// What one pass over every (coder, stimulus) answer counts.
+struct Tally {
+    counts: Vec<Counts>,
+    shown_in: Vec<usize>,
+    mistaken: Vec<BTreeMap<u16, u64>>,
+    /// Combinations in order of first appearance, with their tallies.
+    combo_keys: Vec<Vec<u16>>,
+    combos: Vec<ComboTally>,
+}
+
+/// Counts every answer against the shown AUs, per AU and per combination.
+fn tally(manifest: &Manifest, responses: &Responses, by_stim: &BTreeMap<usize, Vec<usize>>, au_set: &[u16], options: CodingOptions) -> Tally {
+    let au_pos = |au: u16| au_set.binary_search(&au).expect("AU in the set");
+    let mut t = Tally { counts: vec![Counts::default(); au_set.len()], shown_in: vec![0; au_set.len()], mistaken: vec![BTreeMap::new(); au_set.len()], combo_keys: Vec::new(), combos: Vec::new() };
+    for (&s, answers) in by_stim {
+        let truth = &manifest.stimuli[s].expression;
+        let shown = codes(truth);
+        for &au in &shown {
+            t.shown_in[au_pos(au)] += 1;
+        }
+        let ci = match t.combo_keys.iter().position(|k| *k == shown) {
+            Some(ci) => ci,
+            None => {
+                t.combo_keys.push(shown.clone());
+                t.combos.push((0, 0, Counts::default(), BTreeMap::new(), BTreeSet::new()));
+                t.combo_keys.len() - 1
+            }
+        };
+        t.combos[ci].0 += 1;
+        for &i in answers {
+            let answer = &responses.aus[i].aus;
+            let marked = codes(answer);
+            let extra: Vec<u16> = marked.iter().copied().filter(|a| !shown.contains(a)).collect();
+            t.combos[ci].1 += 1;
+            let mut pair = Counts { tn: au_set.len() as u64, ..Counts::default() };
+            for &au in &shown {
+                let k = au_pos(au);
+                pair.tn -= 1;
+                if recognised(truth, answer, au, options) {
+                    t.counts[k].tp += 1;
+                    pair.tp += 1;
+                    t.combos[ci].4.insert(au);
+                } else {
+                    t.counts[k].fn_ += 1;
+                    pair.fn_ += 1;
+                    for &x in &extra {
+                        *t.mistaken[k].entry(x).or_default() += 1;
+                    }
+                }
+            }
+            for &au in &extra {
+                t.counts[au_pos(au)].fp += 1;
+                pair.fp += 1;
+                pair.tn -= 1;
+                *t.combos[ci].3.entry(au).or_default() += 1;
+            }
+            t.combos[ci].2.add(pair);
+        }
+    }
+    let answered_pairs = responses.aus.len() as u64;
+    for c in &mut t.counts {
+        c.tn = answered_pairs - c.tp - c.fp - c.fn_;
+    }
+    t
+}
+
+/// One row per AU: counts, metrics, what it was mistaken for, α and Fleiss κ over the complete
+/// stimuli (`complete_marks[stimulus][coder]` = the codes marked).
+fn au_rows(au_set: &[u16], tally: &Tally, complete_marks: &[Vec<Vec<u16>>], catalog: &Catalog) -> Vec<AuRow> {
+    au_set
+        .iter()
+        .enumerate()
+        .map(|(k, &au)| {
+            let rows: Vec<Vec<f64>> = complete_marks.iter().map(|m| m.iter().map(|c| if c.contains(&au) { 1.0 } else { 0.0 }).collect()).collect();
+            let table: Vec<Vec<u64>> = rows
+                .iter()
+                .map(|r| {
+                    let yes = r.iter().filter(|&&v| v == 1.0).count() as u64;
+                    vec![yes, r.len() as u64 - yes]
+                })
+                .collect();
+            let mut mistaken_for: Vec<AuCount> = tally.mistaken[k].iter().map(|(&au, &count)| AuCount { au, count }).collect();
+            mistaken_for.sort_by(|a, b| b.count.cmp(&a.count).then(a.au.cmp(&b.au)));
+            AuRow {
+                au,
+                name: catalog.get(crate::facs::AuCode(au)).map_or_else(String::new, |u| u.name.clone()),
+                shown_in: tally.shown_in[k],
+                counts: tally.counts[k],
+                metrics: tally.counts[k].metrics(),
+                mistaken_for,
+                alpha: Maybe::of(cronbach_alpha(&rows, 0.95).map(|a| a.alpha)),
+                fleiss_kappa: Maybe::of(fleiss_kappa(&table)),
+            }
+        })
+        .collect()
+}
+
+/// Table 1 layout: AUs with equal rounded metrics together.
+fn table1_groups(per_au: &[AuRow]) -> Vec<MetricGroup> {
+    let round = |m: Metrics| {
+        let r = |v: f64| (v * 100.0).round() / 100.0;
+        Metrics { accuracy: r(m.accuracy), precision: r(m.precision), recall: r(m.recall), f1: r(m.f1) }
+    };
+    let mut groups: Vec<MetricGroup> = Vec::new();
+    for row in per_au.iter().filter(|r| r.shown_in > 0) {
+        let m = round(row.metrics);
+        match groups.iter_mut().find(|g| g.metrics == m) {
+            Some(g) => g.aus.push(row.au),
+            None => groups.push(MetricGroup { aus: vec![row.au], metrics: m }),
+        }
+    }
+    groups.sort_by(|a, b| a.metrics.f1.total_cmp(&b.metrics.f1).then(a.aus[0].cmp(&b.aus[0])));
+    groups
+}
+
+/// Table 4: one row per shown combination.
+fn combination_rows(tally: &Tally) -> Vec<CombinationRow> {
+    tally
+        .combo_keys
+        .iter()
+        .zip(&tally.combos)
+        .map(|(shown, (stimuli, answers, c, fps, rec))| {
+            let recognised: Vec<u16> = shown.iter().copied().filter(|a| rec.contains(a)).collect();
+            let missed: Vec<u16> = shown.iter().copied().filter(|a| !rec.contains(a)).collect();
+            let false_positives: Vec<AuCount> = fps.iter().map(|(&au, &count)| AuCount { au, count }).collect();
+            let mut display = if recognised.is_empty() { "-".to_string() } else { join(&recognised) };
+            if !false_positives.is_empty() {
+                let fp: Vec<u16> = false_positives.iter().map(|f| f.au).collect();
+                display = format!("{display} + ({})", join(&fp));
+            }
+            CombinationRow {
+                combination: if shown.is_empty() { "0".into() } else { join(shown) },
+                stimuli: *stimuli,
+                answers: *answers,
+                recognised,
+                missed,
+                false_positives,
+                recognised_display: display,
+                counts: *c,
+                metrics: c.metrics(),
+            }
+        })
+        .collect()
+}
+
+/// Pairwise Cohen κ over AU decisions and mean Dice, on the stimuli both coders coded.
+fn coder_pairs(responses: &Responses, coders: &[usize], coder_of: &BTreeMap<usize, usize>, au_set: &[u16]) -> Vec<CoderPair> {
+    let mut by_coder: Vec<BTreeMap<usize, Vec<u16>>> = vec![BTreeMap::new(); coders.len()];
+    for a in &responses.aus {
+        by_coder[coder_of[&a.participant]].insert(a.stimulus, codes(&a.aus));
+    }
+    let mut pairs = Vec::new();
+    for i in 0..coders.len() {
+        for j in i + 1..coders.len() {
+            let common: Vec<usize> = by_coder[i].keys().copied().filter(|s| by_coder[j].contains_key(s)).collect();
+            let (mut la, mut lb) = (Vec::new(), Vec::new());
+            let mut dice_sum = 0.0;
+            for s in &common {
+                let (a, b) = (&by_coder[i][s], &by_coder[j][s]);
+                dice_sum += dice(a, b);
+                for au in au_set {
+                    la.push(if a.contains(au) { "1" } else { "0" });
+                    lb.push(if b.contains(au) { "1" } else { "0" });
+                }
+            }
+            pairs.push(CoderPair {
+                coder_a: responses.participants[coders[i]].id.clone(),
+                coder_b: responses.participants[coders[j]].id.clone(),
+                common_stimuli: common.len(),
+                cohen_kappa: Maybe::of(cohen_kappa(&["0", "1"], &la, &lb)),
+                dice_mean: if common.is_empty() { 0.0 } else { dice_sum / common.len() as f64 },
+            });
+        }
+    }
+    pairs
+}
+
 /// Computes the coder section; `None` when there are no `aus` answers.
 pub fn analyze(manifest: &Manifest, responses: &Responses, catalog: &Catalog, options: CodingOptions) -> Option<CodingReport> {
     if responses.aus.is_empty() {
@@ -264,67 +458,11 @@ pub fn analyze(manifest: &Manifest, responses: &Responses, catalog: &Catalog, op
         }
     }
     let au_set: Vec<u16> = au_set.into_iter().collect();
-    let au_pos = |au: u16| au_set.binary_search(&au).expect("AU in the set");
-
-    let mut counts = vec![Counts::default(); au_set.len()];
-    let mut shown_in = vec![0usize; au_set.len()];
-    let mut mistaken: Vec<BTreeMap<u16, u64>> = vec![BTreeMap::new(); au_set.len()];
-    // Combinations in order of first appearance.
-    let mut combo_keys: Vec<Vec<u16>> = Vec::new();
-    let mut combos: Vec<(usize, usize, Counts, BTreeMap<u16, u64>, BTreeSet<u16>)> = Vec::new();
-    for (&s, answers) in &by_stim {
-        let truth = &manifest.stimuli[s].expression;
-        let shown = codes(truth);
-        for &au in &shown {
-            shown_in[au_pos(au)] += 1;
-        }
-        let ci = match combo_keys.iter().position(|k| *k == shown) {
-            Some(ci) => ci,
-            None => {
-                combo_keys.push(shown.clone());
-                combos.push((0, 0, Counts::default(), BTreeMap::new(), BTreeSet::new()));
-                combo_keys.len() - 1
-            }
-        };
-        combos[ci].0 += 1;
-        for &i in answers {
-            let answer = &responses.aus[i].aus;
-            let marked = codes(answer);
-            let extra: Vec<u16> = marked.iter().copied().filter(|a| !shown.contains(a)).collect();
-            combos[ci].1 += 1;
-            let mut pair = Counts { tn: au_set.len() as u64, ..Counts::default() };
-            for &au in &shown {
-                let k = au_pos(au);
-                pair.tn -= 1;
-                if recognised(truth, answer, au, options) {
-                    counts[k].tp += 1;
-                    pair.tp += 1;
-                    combos[ci].4.insert(au);
-                } else {
-                    counts[k].fn_ += 1;
-                    pair.fn_ += 1;
-                    for &x in &extra {
-                        *mistaken[k].entry(x).or_default() += 1;
-                    }
-                }
-            }
-            for &au in &extra {
-                counts[au_pos(au)].fp += 1;
-                pair.fp += 1;
-                pair.tn -= 1;
-                *combos[ci].3.entry(au).or_default() += 1;
-            }
-            combos[ci].2.add(pair);
-        }
-    }
+    let tally = tally(manifest, responses, &by_stim, &au_set, options);
     let answered_pairs = responses.aus.len();
-    for c in &mut counts {
-        c.tn = answered_pairs as u64 - c.tp - c.fp - c.fn_;
-    }
 
-    // Agreement on complete cases.
+    // Agreement on complete cases: marked[stimulus][coder] = codes.
     let complete: Vec<usize> = by_stim.iter().filter(|(_, a)| a.len() == coders.len()).map(|(&s, _)| s).collect();
-    // marked[stimulus][coder] = codes
     let marked_by = |s: usize| -> Vec<Vec<u16>> {
         let mut m = vec![Vec::new(); coders.len()];
         for &i in &by_stim[&s] {
@@ -333,122 +471,23 @@ pub fn analyze(manifest: &Manifest, responses: &Responses, catalog: &Catalog, op
         m
     };
     let complete_marks: Vec<Vec<Vec<u16>>> = complete.iter().map(|&s| marked_by(s)).collect();
-    let per_au: Vec<AuRow> = au_set
-        .iter()
-        .enumerate()
-        .map(|(k, &au)| {
-            let rows: Vec<Vec<f64>> = complete_marks
-                .iter()
-                .map(|m| m.iter().map(|c| if c.contains(&au) { 1.0 } else { 0.0 }).collect())
-                .collect();
-            let table: Vec<Vec<u64>> = rows
-                .iter()
-                .map(|r| {
-                    let yes = r.iter().filter(|&&v| v == 1.0).count() as u64;
-                    vec![yes, r.len() as u64 - yes]
-                })
-                .collect();
-            let mut mistaken_for: Vec<AuCount> = mistaken[k].iter().map(|(&au, &count)| AuCount { au, count }).collect();
-            mistaken_for.sort_by(|a, b| b.count.cmp(&a.count).then(a.au.cmp(&b.au)));
-            AuRow {
-                au,
-                name: catalog.get(crate::facs::AuCode(au)).map_or_else(String::new, |u| u.name.clone()),
-                shown_in: shown_in[k],
-                counts: counts[k],
-                metrics: counts[k].metrics(),
-                mistaken_for,
-                alpha: Maybe::of(cronbach_alpha(&rows, 0.95).map(|a| a.alpha)),
-                fleiss_kappa: Maybe::of(fleiss_kappa(&table)),
-            }
-        })
-        .collect();
+    let per_au = au_rows(&au_set, &tally, &complete_marks, catalog);
     let mut total = Counts::default();
-    for c in &counts {
+    for c in &tally.counts {
         total.add(*c);
     }
     let all_metrics: Vec<Metrics> = per_au.iter().map(|r| r.metrics).collect();
-
-    // Table 1 layout: AUs with equal rounded metrics together.
-    let round = |m: Metrics| {
-        let r = |v: f64| (v * 100.0).round() / 100.0;
-        Metrics { accuracy: r(m.accuracy), precision: r(m.precision), recall: r(m.recall), f1: r(m.f1) }
-    };
-    let mut table1_groups: Vec<MetricGroup> = Vec::new();
-    for row in per_au.iter().filter(|r| r.shown_in > 0) {
-        let m = round(row.metrics);
-        match table1_groups.iter_mut().find(|g| g.metrics == m) {
-            Some(g) => g.aus.push(row.au),
-            None => table1_groups.push(MetricGroup { aus: vec![row.au], metrics: m }),
-        }
-    }
-    table1_groups.sort_by(|a, b| a.metrics.f1.total_cmp(&b.metrics.f1).then(a.aus[0].cmp(&b.aus[0])));
-
-    let combinations: Vec<CombinationRow> = combo_keys
-        .iter()
-        .zip(&combos)
-        .map(|(shown, (stimuli, answers, c, fps, rec))| {
-            let recognised: Vec<u16> = shown.iter().copied().filter(|a| rec.contains(a)).collect();
-            let missed: Vec<u16> = shown.iter().copied().filter(|a| !rec.contains(a)).collect();
-            let false_positives: Vec<AuCount> = fps.iter().map(|(&au, &count)| AuCount { au, count }).collect();
-            let mut display = if recognised.is_empty() { "-".to_string() } else { join(&recognised) };
-            if !false_positives.is_empty() {
-                let fp: Vec<u16> = false_positives.iter().map(|f| f.au).collect();
-                display = format!("{display} + ({})", join(&fp));
-            }
-            CombinationRow {
-                combination: if shown.is_empty() { "0".into() } else { join(shown) },
-                stimuli: *stimuli,
-                answers: *answers,
-                recognised,
-                missed,
-                false_positives,
-                recognised_display: display,
-                counts: *c,
-                metrics: c.metrics(),
-            }
-        })
-        .collect();
+    let combinations = combination_rows(&tally);
     let combinations_macro_mean = Metrics::mean(&combinations.iter().map(|c| c.metrics).collect::<Vec<_>>());
-
-    // Overall Fleiss κ over (stimulus, AU) items; pairwise Cohen κ and Dice.
-    let mut fleiss_table = Vec::new();
-    for m in &complete_marks {
-        for &au in &au_set {
-            let yes = m.iter().filter(|c| c.contains(&au)).count() as u64;
-            fleiss_table.push(vec![yes, m.len() as u64 - yes]);
-        }
-    }
-    let by_coder: Vec<BTreeMap<usize, Vec<u16>>> = {
-        let mut v = vec![BTreeMap::new(); coders.len()];
-        for a in &responses.aus {
-            v[coder_of[&a.participant]].insert(a.stimulus, codes(&a.aus));
-        }
-        v
-    };
-    let mut pairs = Vec::new();
-    for i in 0..coders.len() {
-        for j in i + 1..coders.len() {
-            let common: Vec<usize> = by_coder[i].keys().copied().filter(|s| by_coder[j].contains_key(s)).collect();
-            let (mut la, mut lb) = (Vec::new(), Vec::new());
-            let mut dice_sum = 0.0;
-            for s in &common {
-                let (a, b) = (&by_coder[i][s], &by_coder[j][s]);
-                dice_sum += dice(a, b);
-                for au in &au_set {
-                    la.push(if a.contains(au) { "1" } else { "0" });
-                    lb.push(if b.contains(au) { "1" } else { "0" });
-                }
-            }
-            pairs.push(CoderPair {
-                coder_a: responses.participants[coders[i]].id.clone(),
-                coder_b: responses.participants[coders[j]].id.clone(),
-                common_stimuli: common.len(),
-                cohen_kappa: Maybe::of(cohen_kappa(&["0", "1"], &la, &lb)),
-                dice_mean: if common.is_empty() { 0.0 } else { dice_sum / common.len() as f64 },
-            });
-        }
-    }
-
+    // Overall Fleiss κ over (stimulus, AU) items.
+    let fleiss_table: Vec<Vec<u64>> = complete_marks
+        .iter()
+        .flat_map(|m| au_set.iter().map(move |au| {
+            let yes = m.iter().filter(|c| c.contains(au)).count() as u64;
+            vec![yes, m.len() as u64 - yes]
+        }))
+        .collect();
+    let pairs = coder_pairs(responses, &coders, &coder_of, &au_set);
     Some(CodingReport {
         convention: CONVENTION.to_string(),
         options,
@@ -460,8 +499,8 @@ pub fn analyze(manifest: &Manifest, responses: &Responses, catalog: &Catalog, op
         macro_mean: Metrics::mean(&all_metrics),
         micro: total.metrics(),
         total,
+        table1_groups: table1_groups(&per_au),
         per_au,
-        table1_groups,
         combinations,
         combinations_macro_mean,
         agreement: Agreement { complete_stimuli: complete.len(), fleiss_kappa: Maybe::of(fleiss_kappa(&fleiss_table)), pairs },

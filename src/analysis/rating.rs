@@ -35,6 +35,7 @@ use super::stats::binomial::{Alternative, binomial_test};
 use super::stats::classification::ConfusionMatrix;
 use super::stats::hit_rate::unbiased_hit_rates;
 use super::stats::reliability::cronbach_alpha;
+use super::outcome::Outcome;
 use super::stats::ttest::{TTest, student_t, welch_t};
 
 pub const CONVENTION: &str = "Conditions: media x peak intensity in whole percent. Labels: EmFACS labels (non-neutral alphabetically, then neutral) plus none; chance = 1/options. Confusion: rows = shown emotion, columns = chosen label, percent = row percent. Recognition rate = hits/answers per shown emotion; average rate = unweighted mean over shown emotions; accuracy = hits/all answers. Hu: Wagner (1993). Binomial: exact one-sided (greater) vs chance, Clopper-Pearson 95% CI. Ratings: mean and sample SD (n-1) over all ratings of a cell. Cronbach's alpha: participants = items, stimuli = cases, complete cases only (participants who rated every stimulus of the cell). Group comparisons: per-participant proportion correct or mean rating; Student (pooled) and Welch t, two-sided, Cohen's d with pooled SD, 95% CI of the difference. ANOVA: per media, emotion x intensity, between-subjects, per answer (recognition 1/0) or per rating, Type II and Type III SS, sum-to-zero contrasts.";
@@ -131,8 +132,8 @@ pub struct GroupTest {
     pub group_b: String,
     pub a: Option<Describe>,
     pub b: Option<Describe>,
-    pub student: Result<TTest, String>,
-    pub welch: Result<TTest, String>,
+    pub student: Outcome<TTest>,
+    pub welch: Outcome<TTest>,
 }
 
 /// A two-way ANOVA of one outcome within one media.
@@ -145,8 +146,8 @@ pub struct Anova {
     /// Factor B.
     pub b: &'static str,
     pub n: usize,
-    pub type_ii: Result<AnovaTable, String>,
-    pub type_iii: Result<AnovaTable, String>,
+    pub type_ii: Outcome<AnovaTable>,
+    pub type_iii: Outcome<AnovaTable>,
 }
 
 /// Published figures beside ours (Table 14).
@@ -190,9 +191,22 @@ fn cond_name(k: CondKey) -> String {
     format!("{} {}%", k.0.label(), k.1)
 }
 
-fn ttests(a: &[f64], b: &[f64]) -> (Result<TTest, String>, Result<TTest, String>) {
-    let e = |r: Result<TTest, super::stats::StatsError>| r.map_err(|e| e.to_string());
-    (e(student_t(a, b, 0.95)), e(welch_t(a, b, 0.95)))
+fn ttests(a: &[f64], b: &[f64]) -> (Outcome<TTest>, Outcome<TTest>) {
+    (student_t(a, b, 0.95).into(), welch_t(a, b, 0.95).into())
+}
+
+/// An ANOVA table with its terms named after the factors (`emotion`, `intensity`,
+/// `emotion:intensity`, `residual`) instead of the fitting's `A`, `B`, `A:B`, `Residual`.
+fn named_terms(mut table: AnovaTable, a: &str, b: &str) -> AnovaTable {
+    for row in &mut table.rows {
+        row.term = match row.term.as_str() {
+            "A" => a.to_string(),
+            "B" => b.to_string(),
+            "A:B" => format!("{a}:{b}"),
+            other => other.to_lowercase(),
+        };
+    }
+    table
 }
 
 /// Published Table 14 figures (emotion, system, intensity %, recognition %, believability).
@@ -443,7 +457,7 @@ pub fn analyze(manifest: &Manifest, responses: &Responses) -> Option<RatingRepor
             if cells.n() == 0 {
                 return;
             }
-            let run = |t| two_way_cells(&cells, t).map_err(|e| e.to_string());
+            let run = |t| Outcome::from(two_way_cells(&cells, t)).map(|table| named_terms(table, "emotion", "intensity"));
             anova.push(Anova { media, outcome: outcome.into(), a: "emotion", b: "intensity", n: cells.n(), type_ii: run(SsType::II), type_iii: run(SsType::III) });
         };
         // Factor levels: the labels and the intensities (in whole percent) of the stimuli.

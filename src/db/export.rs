@@ -204,7 +204,7 @@ impl Db {
                 current = Some((id, record));
             }
             let answers: String = row.get(8);
-            let answers: Vec<(String, String)> = serde_json::from_str(&answers).map_err(|e| DbError::Conflict(format!("stored answer unreadable: {e}")))?;
+            let answers: Vec<(String, String)> = serde_json::from_str(&answers).map_err(|e| DbError::Internal(format!("stored answer unreadable: {e}")))?;
             if let Some((_, record)) = current.as_mut() {
                 record.trials.push(TrialRecord {
                     trial: row.get::<i64, _>(5) + 1,

@@ -13,6 +13,7 @@
 pub mod admin;
 pub mod export;
 pub mod participants;
+pub mod password;
 mod recent;
 pub mod studies;
 mod writer;
@@ -31,8 +32,15 @@ pub enum DbError {
     Sql(#[from] sqlx::Error),
     #[error("database migrations: {0}")]
     Migrate(#[from] sqlx::migrate::MigrateError),
+    /// The request clashes with what is stored (a second answer, a state that does not allow it).
     #[error("{0}")]
     Conflict(String),
+    /// The request's content is not acceptable (a weak password, a bad manifest, a bound).
+    #[error("{0}")]
+    Invalid(String),
+    /// Stored data that cannot be read back, or a failure of the system (randomness, hashing).
+    #[error("{0}")]
+    Internal(String),
     #[error("{0}")]
     NotFound(String),
     #[error("{0}")]
@@ -91,6 +99,19 @@ async fn checkpoint_forever(checkpointer: SqlitePool, writes: tokio::sync::mpsc:
 
 static MIGRATOR: sqlx::migrate::Migrator = sqlx::migrate!("./migrations");
 
+/// The data step of migration 0003: participation tokens still stored in clear (32 hex digits,
+/// from databases made before it) are replaced by their SHA-256 (64 hex digits), in one
+/// transaction; a database without such tokens is left as it is. Returns how many were hashed.
+async fn hash_clear_tokens(writer: &SqlitePool) -> Result<usize, DbError> {
+    let mut tx = writer.begin().await?;
+    let clear: Vec<(i64, String)> = sqlx::query_as("SELECT id, token_sha256 FROM participants WHERE length(token_sha256) = 32").fetch_all(&mut *tx).await?;
+    for (id, token) in &clear {
+        sqlx::query("UPDATE participants SET token_sha256 = ? WHERE id = ?").bind(token_sha256(token)).bind(id).execute(&mut *tx).await?;
+    }
+    tx.commit().await?;
+    Ok(clear.len())
+}
+
 impl Db {
     /// Opens (creating if needed) the database file and applies the migrations.
     pub async fn open(path: &Path) -> Result<Db, DbError> {
@@ -107,6 +128,7 @@ impl Db {
         let pool = |connections| SqlitePoolOptions::new().max_connections(connections).test_before_acquire(false).idle_timeout(None).max_lifetime(None);
         let writer = pool(1).connect_with(options.clone().pragma("wal_autocheckpoint", WRITER_CHECKPOINT_PAGES)).await?;
         MIGRATOR.run(&writer).await?;
+        hash_clear_tokens(&writer).await?;
         let checkpointer = pool(1).connect_with(options.clone()).await?;
         let reader = pool(4).connect_with(options.read_only(true)).await?;
         let (writes, queue) = tokio::sync::mpsc::channel(writer::QUEUE);
@@ -177,5 +199,39 @@ mod tests {
         tokio::time::sleep(CHECKPOINT_EVERY * 2).await;
         let on_disk = std::fs::metadata(&path).expect("database file").len();
         assert_eq!(on_disk as i64, size, "the migrations' pages are in the database file, not only in the WAL");
+    }
+
+    #[tokio::test]
+    async fn clear_tokens_of_older_databases_are_hashed_on_open() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let path = dir.path().join("old.db");
+        // A database as the two first migrations left it, with a participation token in clear.
+        let old_migrations = dir.path().join("migrations");
+        std::fs::create_dir_all(&old_migrations).expect("dir");
+        for name in ["0001_study_platform.sql", "0002_participants_index_without_expiry.sql"] {
+            std::fs::copy(Path::new(env!("CARGO_MANIFEST_DIR")).join("migrations").join(name), old_migrations.join(name)).expect("copy");
+        }
+        let options = SqliteConnectOptions::from_str("sqlite:").expect("options").filename(&path).create_if_missing(true);
+        let pool = SqlitePool::connect_with(options).await.expect("old database");
+        sqlx::migrate::Migrator::new(old_migrations.as_path()).await.expect("migrator").run(&pool).await.expect("old schema");
+        let token = secret_token();
+        sqlx::raw_sql(sqlx::AssertSqlSafe(format!(
+            "INSERT INTO studies VALUES (1, 's', 'S', '', 'set', 'open', 0);
+             INSERT INTO participants (id, study_id, token, public_id, worker_id, platform, platform_params, grp, seed, state, created_at, updated_at, expires_at)
+             VALUES (1, 1, '{token}', 'p1', 'w1', 'local', '{{}}', 'g', 1, 'active', 0, 0, 0);"
+        )))
+        .execute(&pool)
+        .await
+        .expect("old rows");
+        pool.close().await;
+
+        let db = Db::open(&path).await.expect("open with the new migrations");
+        let stored: String = sqlx::query_scalar("SELECT token_sha256 FROM participants").fetch_one(&db.reader).await.expect("row");
+        assert_eq!(stored, token_sha256(&token));
+        assert_eq!(db.participation(&token).await.expect("read").map(|p| p.id), Some(1), "the participant's link still works");
+        db.close().await;
+        let again = Db::open(&path).await.expect("reopen");
+        let stored: String = sqlx::query_scalar("SELECT token_sha256 FROM participants").fetch_one(&again.reader).await.expect("row");
+        assert_eq!(stored, token_sha256(&token), "hashed once, not again");
     }
 }

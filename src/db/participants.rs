@@ -12,7 +12,7 @@ use std::collections::hash_map::Entry;
 use sqlx::{Row, SqliteConnection};
 
 use super::writer::{Request, Written};
-use super::{Db, DbError, now_ms, secret_token};
+use super::{Db, DbError, now_ms, secret_token, token_sha256};
 use crate::study::assign::{self, PlannedTrial, TrialKind};
 use crate::study::task::passes_check;
 use crate::study::{Answer, SessionState, StudyDesign};
@@ -22,7 +22,6 @@ use crate::study::{Answer, SessionState, StudyDesign};
 pub struct Participation {
     pub id: i64,
     pub study_id: i64,
-    pub token: String,
     pub public_id: String,
     pub worker_id: String,
     pub platform_params: String,
@@ -45,9 +44,9 @@ pub struct TrialRow {
 /// What a start request led to.
 #[derive(Debug)]
 pub enum Started {
-    /// A new participation (its secret token).
+    /// A new participation (its secret token, shown once: only its SHA-256 is stored).
     New(String),
-    /// This worker already has a participation in this study (its token).
+    /// This worker already has a participation in this study (the SHA-256 of its token).
     Existing(String),
     /// Every stimulus has its ratings.
     Full,
@@ -85,19 +84,24 @@ fn participation(row: sqlx::sqlite::SqliteRow) -> Result<Participation, DbError>
     Ok(Participation {
         id: row.get("id"),
         study_id: row.get("study_id"),
-        token: row.get("token"),
         public_id: row.get("public_id"),
         worker_id: row.get("worker_id"),
         platform_params: row.get("platform_params"),
-        state: SessionState::parse(&state).ok_or_else(|| DbError::Conflict(format!("unknown state \"{state}\"")))?,
+        state: SessionState::parse(&state).ok_or_else(|| DbError::Internal(format!("unknown state \"{state}\"")))?,
         consented: row.get::<Option<String>, _>("consent_sha256").is_some(),
         has_demographics: row.get::<i64, _>("has_demographics") != 0,
         expires_at: row.get("expires_at"),
     })
 }
 
-const BY_TOKEN: &str = "SELECT p.*, EXISTS (SELECT 1 FROM demographics d WHERE d.participant_id = p.id) AS has_demographics FROM participants p WHERE p.token = ?";
-const EXPIRED: &str = "SELECT p.*, 0 AS has_demographics FROM participants p WHERE p.state IN ('reserved', 'active') AND p.expires_at <= ?";
+const BY_TOKEN: &str = "SELECT p.*, EXISTS (SELECT 1 FROM demographics d WHERE d.participant_id = p.id) AS has_demographics FROM participants p WHERE p.token_sha256 = ?";
+/// How long a participation may stay reserved without consent (milliseconds): after that it no
+/// longer counts toward the balance and the reaper abandons it, whatever the design's
+/// reservation time, so starts that never consent cannot hold a study's places for long.
+pub const CONSENT_WITHIN_MS: i64 = 10 * 60_000;
+
+const EXPIRED: &str = "SELECT p.*, 0 AS has_demographics FROM participants p WHERE (p.state IN ('reserved', 'active') AND p.expires_at <= ?1)
+    OR (p.state = 'reserved' AND p.created_at <= ?1 - ?2)";
 
 async fn log_transition(conn: &mut SqliteConnection, participant: i64, from: Option<SessionState>, to: SessionState, reason: &str) -> Result<(), DbError> {
     sqlx::query("INSERT INTO session_events (participant_id, from_state, to_state, reason, at) VALUES (?, ?, ?, ?, ?)")
@@ -124,7 +128,7 @@ async fn transition(conn: &mut SqliteConnection, id: i64, from: SessionState, to
 }
 
 async fn load_by_token(conn: &mut SqliteConnection, token: &str) -> Result<Participation, DbError> {
-    let row = sqlx::query(BY_TOKEN).bind(token).fetch_optional(&mut *conn).await?;
+    let row = sqlx::query(BY_TOKEN).bind(token_sha256(token)).fetch_optional(&mut *conn).await?;
     participation(row.ok_or_else(|| DbError::NotFound("no such participation".into()))?)
 }
 
@@ -143,19 +147,20 @@ impl Db {
     /// The id of the study a participation token belongs to, from memory once seen (a
     /// participation never changes study), so a save needs no read before the writer's.
     pub async fn participation_study(&self, token: &str) -> Result<Option<i64>, DbError> {
-        let remembered = self.studies_of_tokens.lock().ok().and_then(|mut known| known.get(token));
+        let hash = token_sha256(token);
+        let remembered = self.studies_of_tokens.lock().ok().and_then(|mut known| known.get(&hash));
         if remembered.is_some() {
             return Ok(remembered);
         }
-        let study: Option<i64> = sqlx::query_scalar("SELECT study_id FROM participants WHERE token = ?").bind(token).fetch_optional(&self.reader).await?;
+        let study: Option<i64> = sqlx::query_scalar("SELECT study_id FROM participants WHERE token_sha256 = ?").bind(&hash).fetch_optional(&self.reader).await?;
         if let (Some(study), Ok(mut known)) = (study, self.studies_of_tokens.lock()) {
-            known.insert(token.to_string(), study);
+            known.insert(hash, study);
         }
         Ok(study)
     }
 
     pub async fn participation(&self, token: &str) -> Result<Option<Participation>, DbError> {
-        let row = sqlx::query(BY_TOKEN).bind(token).fetch_optional(&self.reader).await?;
+        let row = sqlx::query(BY_TOKEN).bind(token_sha256(token)).fetch_optional(&self.reader).await?;
         row.map(participation).transpose()
     }
 
@@ -174,7 +179,7 @@ impl Db {
                 let kind: String = r.get(1);
                 Ok(TrialRow {
                     position: r.get(0),
-                    kind: TrialKind::parse(&kind).ok_or_else(|| DbError::Conflict(format!("unknown trial kind \"{kind}\"")))?,
+                    kind: TrialKind::parse(&kind).ok_or_else(|| DbError::Internal(format!("unknown trial kind \"{kind}\"")))?,
                     stimulus_id: r.get(2),
                     check_index: r.get::<Option<i64>, _>(3).map(|i| i as usize),
                     answered: r.get::<i64, _>(4) != 0,
@@ -353,10 +358,12 @@ async fn count_loads(conn: &mut SqliteConnection, study_id: i64, now: i64) -> Re
          LEFT JOIN trials t ON t.stimulus_id = s.stimulus_id AND t.kind = 'trial'
          LEFT JOIN participants p ON p.id = t.participant_id AND p.study_id = s.study_id AND p.excluded = 0
              AND (p.state = 'completed' OR (p.state IN ('reserved', 'active') AND p.expires_at > ?2))
+             AND (p.state <> 'reserved' OR p.created_at > ?2 - ?3)
          WHERE s.study_id = ?1 GROUP BY s.stimulus_id ORDER BY s.stimulus_id",
     )
     .bind(study_id)
     .bind(now)
+    .bind(CONSENT_WITHIN_MS)
     .fetch_all(&mut *conn)
     .await?;
     Ok(rows.into_iter().map(|r| (r.get::<String, _>(0), r.get::<i64, _>(1) as usize)).collect())
@@ -405,6 +412,7 @@ pub(crate) struct SaveRequest {
     reservation_minutes: u32,
     checks: Vec<crate::study::design::AttentionCheck>,
     max_failures: u32,
+    needs_demographics: bool,
 }
 
 impl SaveRequest {
@@ -418,6 +426,7 @@ impl SaveRequest {
             reservation_minutes: design.reservation_minutes,
             checks: design.attention.checks.clone(),
             max_failures: design.attention.max_failures,
+            needs_demographics: design.demographics,
         }
     }
 }
@@ -426,7 +435,7 @@ impl SaveRequest {
 /// least-loaded stimuli (counting the starts stored before it) and stores the plan.
 pub(crate) async fn start_in(conn: &mut SqliteConnection, start: &StartRequest, loads: &mut StimulusLoads) -> Result<Started, DbError> {
     let now = now_ms();
-    let existing = sqlx::query("SELECT token FROM participants WHERE study_id = ? AND worker_id = ?")
+    let existing = sqlx::query("SELECT token_sha256 FROM participants WHERE study_id = ? AND worker_id = ?")
         .bind(start.study_id)
         .bind(&start.worker_id)
         .fetch_optional(&mut *conn)
@@ -445,11 +454,11 @@ pub(crate) async fn start_in(conn: &mut SqliteConnection, start: &StartRequest, 
     let public_id = format!("p{}", &secret_token()[..12]);
     let expires = now + i64::from(start.reservation_minutes) * 60_000;
     let id: i64 = sqlx::query(
-        "INSERT INTO participants (study_id, token, public_id, worker_id, platform, platform_params, grp, seed, state, created_at, updated_at, expires_at)
+        "INSERT INTO participants (study_id, token_sha256, public_id, worker_id, platform, platform_params, grp, seed, state, created_at, updated_at, expires_at)
          VALUES (?, ?, ?, ?, ?, ?, ?, ?, 'reserved', ?, ?, ?) RETURNING id",
     )
     .bind(start.study_id)
-    .bind(&token)
+    .bind(token_sha256(&token))
     .bind(&public_id)
     .bind(&start.worker_id)
     .bind(start.platform)
@@ -486,14 +495,14 @@ pub(crate) async fn consent_in(conn: &mut SqliteConnection, token: &str, consent
     log_transition(conn, p.id, Some(p.state), active, "consent given").await
 }
 
-/// Demographics inside the writer's transaction (replacing earlier ones) while the
-/// participation is open.
+/// Demographics inside the writer's transaction while the participation is open: written
+/// once; a second post is a conflict and changes nothing.
 pub(crate) async fn demographics_in(conn: &mut SqliteConnection, token: &str, d: &Demographics) -> Result<(), DbError> {
     let p = load_by_token(conn, token).await?;
     if !p.state.is_open() {
         return Err(DbError::Conflict(format!("this participation is {}", p.state)));
     }
-    sqlx::query("INSERT OR REPLACE INTO demographics (participant_id, age, gender, ethnicity, education) VALUES (?, ?, ?, ?, ?)")
+    let stored = sqlx::query("INSERT INTO demographics (participant_id, age, gender, ethnicity, education) VALUES (?, ?, ?, ?, ?) ON CONFLICT (participant_id) DO NOTHING")
         .bind(p.id)
         .bind(d.age)
         .bind(&d.gender)
@@ -501,6 +510,9 @@ pub(crate) async fn demographics_in(conn: &mut SqliteConnection, token: &str, d:
         .bind(&d.education)
         .execute(&mut *conn)
         .await?;
+    if stored.rows_affected() == 0 {
+        return Err(DbError::Conflict("Your answers about yourself are saved already; they are kept as first given.".into()));
+    }
     Ok(())
 }
 
@@ -522,7 +534,7 @@ pub(crate) async fn exclude_in(conn: &mut SqliteConnection, study_id: i64, publi
 /// The reaper inside the writer's transaction: abandons the open participations whose
 /// reservation expired before `now`; returns how many.
 pub(crate) async fn reap_in(conn: &mut SqliteConnection, now: i64) -> Result<usize, DbError> {
-    let expired = sqlx::query(EXPIRED).bind(now).fetch_all(&mut *conn).await?;
+    let expired = sqlx::query(EXPIRED).bind(now).bind(CONSENT_WITHIN_MS).fetch_all(&mut *conn).await?;
     let n = expired.len();
     for row in expired {
         let p = participation(row)?;
@@ -537,56 +549,98 @@ pub(crate) async fn withdraw_in(conn: &mut SqliteConnection, token: &str) -> Res
     transition(conn, p.id, p.state, SessionState::Withdrawn, "withdrawn by the participant").await
 }
 
-/// One save inside the writer's transaction.
-pub(crate) async fn save_in(tx: &mut SqliteConnection, save: &SaveRequest) -> Result<SaveOutcome, DbError> {
-    let SaveRequest { token, position, key, answer, timing, .. } = save;
-    let position = *position;
-    let answers = serde_json::to_string(&answer.0).map_err(|e| DbError::Conflict(e.to_string()))?;
-    // Everything the checks need, in one statement (each statement is a round trip to
-    // SQLite's worker thread, and the writer is the bottleneck under load).
+/// What a save's checks need, read in one statement (each statement is a round trip to
+/// SQLite's worker thread, and the writer is the bottleneck under load).
+struct SaveFacts {
+    id: i64,
+    state: SessionState,
+    failures: i64,
+    trial_exists: bool,
+    check: Option<i64>,
+    /// The answer stored under this idempotency key, if any: (same trial of the same participation, its answers).
+    keyed: Option<(bool, String)>,
+    answered: bool,
+    has_demographics: bool,
+    remaining: i64,
+}
+
+async fn save_facts(tx: &mut SqliteConnection, save: &SaveRequest) -> Result<SaveFacts, DbError> {
     let row = sqlx::query(
         "SELECT p.id, p.state, p.attention_failures, t.kind IS NOT NULL, t.check_index,
-                (SELECT r.participant_id = p.id AND r.position = ?2 FROM responses r WHERE r.idempotency_key = ?3),
+                k.participant_id = p.id AND k.position = ?2, k.answers,
                 EXISTS (SELECT 1 FROM responses r WHERE r.participant_id = p.id AND r.position = ?2),
+                EXISTS (SELECT 1 FROM demographics d WHERE d.participant_id = p.id),
                 (SELECT COUNT(*) FROM trials u WHERE u.participant_id = p.id
                     AND NOT EXISTS (SELECT 1 FROM responses r WHERE r.participant_id = u.participant_id AND r.position = u.position))
          FROM participants p LEFT JOIN trials t ON t.participant_id = p.id AND t.position = ?2
-         WHERE p.token = ?1",
+         LEFT JOIN responses k ON k.idempotency_key = ?3
+         WHERE p.token_sha256 = ?1",
     )
-    .bind(token)
-    .bind(position)
-    .bind(key)
+    .bind(token_sha256(&save.token))
+    .bind(save.position)
+    .bind(&save.key)
     .fetch_optional(&mut *tx)
     .await?
     .ok_or_else(|| DbError::NotFound("no such participation".into()))?;
-    let (id, state_text, failures, trial_exists, check, key_match, answered, remaining): (i64, String, i64, bool, Option<i64>, Option<bool>, bool, i64) =
-        (row.get(0), row.get(1), row.get(2), row.get(3), row.get(4), row.get(5), row.get(6), row.get(7));
-    let state = SessionState::parse(&state_text).ok_or_else(|| DbError::Conflict(format!("unknown state \"{state_text}\"")))?;
-    match key_match {
-        Some(true) => return Ok(SaveOutcome { saved: Saved::Repeated, state, remaining }),
-        Some(false) => return Err(DbError::Conflict("this idempotency key belongs to another answer".into())),
+    let state_text: String = row.get(1);
+    let keyed = row.get::<Option<String>, _>(6).map(|answers| (row.get::<bool, _>(5), answers));
+    Ok(SaveFacts {
+        id: row.get(0),
+        state: SessionState::parse(&state_text).ok_or_else(|| DbError::Internal(format!("unknown state \"{state_text}\"")))?,
+        failures: row.get(2),
+        trial_exists: row.get(3),
+        check: row.get(4),
+        keyed,
+        answered: row.get(7),
+        has_demographics: row.get(8),
+        remaining: row.get(9),
+    })
+}
+
+/// Refuses a save that the participation's state, the design's steps or an earlier save rule
+/// out; `Some` is the answer to a repeated save (the same key with the same answer).
+fn check_save(facts: &SaveFacts, save: &SaveRequest, answers: &str) -> Result<Option<SaveOutcome>, DbError> {
+    let position = save.position;
+    match &facts.keyed {
+        Some((true, stored)) if stored == answers => return Ok(Some(SaveOutcome { saved: Saved::Repeated, state: facts.state, remaining: facts.remaining })),
+        Some((true, _)) => return Err(DbError::Conflict(format!("trial {position} was saved under this idempotency key with another answer; the first answer is kept"))),
+        Some((false, _)) => return Err(DbError::Conflict("this idempotency key belongs to another answer".into())),
         None => {}
     }
-    if state != SessionState::Active {
-        return Err(DbError::Conflict(format!("this participation is {state}, not active")));
+    if facts.state != SessionState::Active {
+        return Err(DbError::Conflict(format!("this participation is {}, not active", facts.state)));
     }
-    if !trial_exists {
+    if save.needs_demographics && !facts.has_demographics {
+        return Err(DbError::Conflict("the questions about you come before the trials".into()));
+    }
+    if !facts.trial_exists {
         return Err(DbError::NotFound(format!("there is no trial {position}")));
     }
-    if answered {
+    if facts.answered {
         return Err(DbError::Conflict(format!("trial {position} is answered already")));
     }
-    let failed_check = check.and_then(|i| save.checks.get(i as usize)).is_some_and(|c| !passes_check(answer, &c.measure, &c.value));
-    let failures = failures + i64::from(failed_check);
-    let remaining = remaining - 1;
+    Ok(None)
+}
+
+/// One save inside the writer's transaction.
+pub(crate) async fn save_in(tx: &mut SqliteConnection, save: &SaveRequest) -> Result<SaveOutcome, DbError> {
+    let SaveRequest { position, key, answer, timing, .. } = save;
+    let answers = serde_json::to_string(&answer.0).map_err(|e| DbError::Internal(e.to_string()))?;
+    let facts = save_facts(tx, save).await?;
+    if let Some(repeated) = check_save(&facts, save, &answers)? {
+        return Ok(repeated);
+    }
+    let failed_check = facts.check.and_then(|i| save.checks.get(i as usize)).is_some_and(|c| !passes_check(answer, &c.measure, &c.value));
+    let failures = facts.failures + i64::from(failed_check);
+    let remaining = facts.remaining - 1;
     let (state, reason) = match after_save(failed_check, failures, save.max_failures, remaining) {
         Some((to, reason)) => (to, Some(reason)),
         None => (SessionState::Active, None),
     };
     let now = now_ms();
     sqlx::query("INSERT INTO responses (participant_id, position, idempotency_key, answers, rt_ms, video_ended, load_failed, received_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?)")
-        .bind(id)
-        .bind(position)
+        .bind(facts.id)
+        .bind(*position)
         .bind(key)
         .bind(&answers)
         .bind(timing.rt_ms)
@@ -601,11 +655,11 @@ pub(crate) async fn save_in(tx: &mut SqliteConnection, save: &SaveRequest) -> Re
         .bind(state.as_str())
         .bind(now)
         .bind(now + i64::from(save.reservation_minutes) * 60_000)
-        .bind(id)
+        .bind(facts.id)
         .execute(&mut *tx)
         .await?;
     if let Some(reason) = reason {
-        log_transition(tx, id, Some(SessionState::Active), state, &reason).await?;
+        log_transition(tx, facts.id, Some(SessionState::Active), state, &reason).await?;
     }
     Ok(SaveOutcome { saved: Saved::Stored, state, remaining })
 }

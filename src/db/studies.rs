@@ -20,7 +20,7 @@ pub struct StudyRow {
 impl StudyRow {
     /// The design, parsed again from the stored TOML (it was validated on creation).
     pub fn design(&self) -> Result<StudyDesign, DbError> {
-        StudyDesign::from_toml(&self.spec_toml).map_err(|e| DbError::Conflict(format!("stored design of \"{}\" no longer valid: {e}", self.slug)))
+        StudyDesign::from_toml(&self.spec_toml).map_err(|e| DbError::Internal(format!("stored design of \"{}\" no longer valid: {e}", self.slug)))
     }
 }
 
@@ -179,12 +179,12 @@ impl Db {
 pub fn set_stimuli(set_dir: &std::path::Path, media: crate::study::design::MediaFilter) -> Result<Vec<StudyStimulus>, DbError> {
     let manifest = set_dir.join("manifest.json");
     let text = std::fs::read_to_string(&manifest).map_err(|e| DbError::NotFound(format!("{}: {e} (build the set first: facslab stimuli build SPEC -o DIR)", manifest.display())))?;
-    let rows: Vec<crate::stimuli::manifest::ManifestRow> = serde_json::from_str(&text).map_err(|e| DbError::Conflict(format!("{}: {e}", manifest.display())))?;
+    let rows: Vec<crate::stimuli::manifest::ManifestRow> = serde_json::from_str(&text).map_err(|e| DbError::Invalid(format!("{}: {e}", manifest.display())))?;
     let mut stimuli = Vec::new();
     for row in rows.into_iter().filter(|r| media.admits(&r.media)) {
         let relative = std::path::Path::new(&row.file);
         if relative.components().any(|c| !matches!(c, std::path::Component::Normal(_))) {
-            return Err(DbError::Conflict(format!("{}: stimulus {} has a file path outside the set: {}", manifest.display(), row.stimulus_id, row.file)));
+            return Err(DbError::Invalid(format!("{}: stimulus {} has a file path outside the set: {}", manifest.display(), row.stimulus_id, row.file)));
         }
         if !set_dir.join(relative).is_file() {
             return Err(DbError::NotFound(format!("{}: the file of stimulus {} is missing: {}", manifest.display(), row.stimulus_id, row.file)));
@@ -192,7 +192,7 @@ pub fn set_stimuli(set_dir: &std::path::Path, media: crate::study::design::Media
         stimuli.push(StudyStimulus { stimulus_id: row.stimulus_id, media: row.media, file: row.file, emotion: row.emotion });
     }
     if stimuli.is_empty() {
-        return Err(DbError::Conflict(format!("{}: no stimuli of the media this study asks for", manifest.display())));
+        return Err(DbError::Invalid(format!("{}: no stimuli of the media this study asks for", manifest.display())));
     }
     Ok(stimuli)
 }

@@ -244,8 +244,8 @@ mod tests {
 
     fn token(outcome: &Result<Written, DbError>) -> String {
         match started(outcome) {
-            Some(Started::New(token) | Started::Existing(token)) => token.clone(),
-            other => panic!("not started: {other:?}"),
+            Some(Started::New(token)) => token.clone(),
+            other => panic!("not new: {other:?}"),
         }
     }
 
@@ -262,7 +262,8 @@ mod tests {
         assert!(matches!(started(&outcomes[0]), Some(Started::New(_))));
         assert!(matches!(started(&outcomes[1]), Some(Started::New(_))));
         assert!(matches!(started(&outcomes[2]), Some(Started::Existing(_))));
-        assert_eq!(token(&outcomes[2]), token(&outcomes[0]));
+        let Some(Started::Existing(existing)) = started(&outcomes[2]) else { panic!("not existing") };
+        assert_eq!(*existing, super::super::token_sha256(&token(&outcomes[0])), "the first participation, by its token's hash");
         assert_ne!(token(&outcomes[1]), token(&outcomes[0]));
         let participations: i64 = sqlx::query_scalar("SELECT COUNT(*) FROM participants").fetch_one(&db.reader).await.expect("count");
         assert_eq!(participations, 2);
@@ -344,8 +345,9 @@ mod tests {
         // An SQL error part-way through a request: the consent of `broken` updates its row,
         // then logging the change fails.
         sqlx::raw_sql(sqlx::AssertSqlSafe(format!(
-            "CREATE TRIGGER refuse BEFORE INSERT ON session_events WHEN NEW.participant_id = (SELECT id FROM participants WHERE token = '{broken}')
-             BEGIN SELECT RAISE(ABORT, 'refused'); END"
+            "CREATE TRIGGER refuse BEFORE INSERT ON session_events WHEN NEW.participant_id = (SELECT id FROM participants WHERE token_sha256 = '{}')
+             BEGIN SELECT RAISE(ABORT, 'refused'); END",
+            super::super::token_sha256(&broken)
         )))
         .execute(&db.writer)
         .await
@@ -418,7 +420,7 @@ mod tests {
         let (db, id, design) = study(&dir, "", 2).await;
         let Started::New(token) = db.start_participation(id, &design, "w1", "{}").await.expect("start") else { panic!("not new") };
         assert_eq!(db.participation_study(&token).await.expect("lookup"), Some(id));
-        assert_eq!(db.studies_of_tokens.lock().expect("cache").get(token.as_str()), Some(id));
+        assert_eq!(db.studies_of_tokens.lock().expect("cache").get(&super::super::token_sha256(&token)), Some(id));
         assert_eq!(db.participation_study(&"0".repeat(32)).await.expect("lookup"), None);
     }
 

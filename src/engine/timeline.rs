@@ -139,6 +139,20 @@ fn default_size() -> [u32; 2] {
     [super::DEFAULT_SIZE.0, super::DEFAULT_SIZE.1]
 }
 
+/// Longest timeline, in seconds (five minutes, far beyond any expression clip): with the
+/// highest frame rate it bounds a video to 36,000 frames, checked before anything is allocated.
+pub const MAX_DURATION_S: f64 = 300.0;
+/// Most tracks in one timeline (the overlap check compares every pair).
+pub const MAX_TRACKS: usize = 4096;
+/// Longest timeline JSON read.
+pub const MAX_JSON_BYTES: usize = 4 << 20;
+
+/// A number for a message: as written when small, in exponent form when huge (1e300 is not
+/// spelled out in 301 digits).
+pub fn short_number(v: f64) -> String {
+    if v.abs() < 1e9 { v.to_string() } else { format!("{v:e}") }
+}
+
 /// A whole dynamic stimulus: everything needed to render its frames again.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Timeline {
@@ -158,8 +172,10 @@ pub struct Timeline {
 pub enum TimelineError {
     #[error("the frame rate must be 1..=120 fps, not {0}")]
     Fps(u32),
-    #[error("the duration must be a positive number of seconds, not {0}")]
+    #[error("the duration must be a positive number of seconds up to 300, not {}", short_number(*.0))]
     Duration(f64),
+    #[error("a timeline has at most 4096 tracks, not {0}")]
+    Tracks(usize),
     #[error("the frame size {0}×{1} is out of range (each side 16..=4096)")]
     Size(u32, u32),
     #[error("track {track} (AU {au}): AU {au} is not in the catalog")]
@@ -201,8 +217,11 @@ impl Timeline {
         if !(1..=120).contains(&self.fps) {
             return Err(TimelineError::Fps(self.fps));
         }
-        if !(self.duration_s.is_finite() && self.duration_s > 0.0) {
+        if !(self.duration_s.is_finite() && self.duration_s > 0.0 && self.duration_s <= MAX_DURATION_S) {
             return Err(TimelineError::Duration(self.duration_s));
+        }
+        if self.tracks.len() > MAX_TRACKS {
+            return Err(TimelineError::Tracks(self.tracks.len()));
         }
         let [w, h] = self.size;
         if !(16..=4096).contains(&w) || !(16..=4096).contains(&h) {
@@ -294,6 +313,9 @@ impl Timeline {
     }
 
     pub fn from_json(text: &str) -> Result<Timeline, TimelineError> {
+        if text.len() > MAX_JSON_BYTES {
+            return Err(TimelineError::Json(format!("{} bytes is over the 4 MiB a timeline may have", text.len())));
+        }
         serde_json::from_str(text).map_err(|e| TimelineError::Json(e.to_string()))
     }
 }
@@ -465,6 +487,11 @@ mod tests {
         let mut t = hapfacs_clip("12");
         t.duration_s = -1.0;
         assert_eq!(t.validate(catalog()), Err(TimelineError::Duration(-1.0)));
+        for long in [MAX_DURATION_S + 0.001, 1e12, 1e300] {
+            t.duration_s = long;
+            assert_eq!(t.validate(catalog()), Err(TimelineError::Duration(long)), "bounded before any frame is made");
+        }
+        assert!(matches!(Timeline::from_json(&" ".repeat(MAX_JSON_BYTES + 1)), Err(TimelineError::Json(m)) if m.len() < 80));
     }
 
     #[test]

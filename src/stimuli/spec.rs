@@ -139,11 +139,42 @@ struct Item {
     steps: Vec<Expression>,
 }
 
+/// Longest spec text read.
+pub const MAX_SPEC_BYTES: usize = 1 << 20;
+/// Longest expression in a spec.
+pub const MAX_EXPRESSION_LEN: usize = 512;
+/// Most stimuli in one set.
+pub const MAX_ENTRIES: usize = 20_000;
+/// Most frames one set renders (videos count every frame, stills one).
+pub const MAX_SET_FRAMES: usize = 2_000_000;
+
+/// A short excerpt of `text` for a message.
+fn excerpt(text: &str) -> String {
+    let start: String = text.chars().take(32).collect();
+    if start.len() < text.len() { format!("{start}…") } else { start }
+}
+
+/// Refuses over-long expressions before they are parsed (parse errors quote their input).
+fn check_lengths(raw: &RawSpec) -> Result<(), SpecError> {
+    for group in &raw.group {
+        for text in group.aus.iter().chain(group.expressions.iter().flatten()) {
+            if text.len() > MAX_EXPRESSION_LEN {
+                return Err(fail(format!("group \"{}\"", excerpt(&group.name)), format!("expression \"{}\" has {} characters; at most {MAX_EXPRESSION_LEN}", excerpt(text), text.len())));
+            }
+        }
+    }
+    Ok(())
+}
+
 impl SetSpec {
     /// Reads and validates a spec against the built-in catalog, emotion and CPT tables and
     /// identities.
     pub fn from_toml(text: &str) -> Result<SetSpec, SpecError> {
+        if text.len() > MAX_SPEC_BYTES {
+            return Err(fail("spec", format!("{} bytes is over the 1 MiB a set specification may have", text.len())));
+        }
         let raw: RawSpec = toml::from_str(text).map_err(|e| fail("spec", format!("not a valid set specification: {e}")))?;
+        check_lengths(&raw)?;
         let catalog = Catalog::built_in();
         let identities_table = IdentityTable::built_in();
         let size = raw.size.unwrap_or([crate::engine::DEFAULT_SIZE.0, crate::engine::DEFAULT_SIZE.1]);
@@ -166,6 +197,7 @@ impl SetSpec {
         }
 
         let mut entries = Vec::new();
+        let mut frames = 0usize;
         for (g, group) in raw.group.iter().enumerate() {
             let gname = format!("group {} \"{}\"", g + 1, group.name);
             let items = group_items(group, &gname, catalog)?;
@@ -205,6 +237,8 @@ impl SetSpec {
                             Timeline::clip(&steps[0], timing, fps, &identity, (size[0], size[1]))
                         };
                         timeline.validate(catalog).map_err(|e| fail(&item_name, e.to_string()))?;
+                        frames += timeline.frame_count();
+                        check_size(entries.len() + 1, frames)?;
                         entries.push(Entry {
                             index: entries.len(),
                             origin: format!("{item_name}, video at {peak}, {identity}"),
@@ -216,6 +250,8 @@ impl SetSpec {
                         });
                     }
                     for &level in &group.stills {
+                        frames += 1;
+                        check_size(entries.len() + 1, frames)?;
                         let expression = item.steps[0].scaled(level);
                         entries.push(Entry {
                             index: entries.len(),
@@ -243,6 +279,10 @@ impl SetSpec {
 
     /// Reads a spec file.
     pub fn load(path: &std::path::Path) -> Result<SetSpec, SpecError> {
+        let bytes = std::fs::metadata(path).map_err(|e| fail(path.display().to_string(), e.to_string()))?.len();
+        if bytes > MAX_SPEC_BYTES as u64 {
+            return Err(fail(path.display().to_string(), format!("{bytes} bytes is over the 1 MiB a set specification may have")));
+        }
         let text = std::fs::read_to_string(path).map_err(|e| fail(path.display().to_string(), e.to_string()))?;
         SetSpec::from_toml(&text)
     }
@@ -279,14 +319,29 @@ fn union(steps: &[Expression], catalog: &Catalog) -> Result<Expression, crate::f
     Expression::from_activations(out, catalog)
 }
 
+/// Refuses a set that grows past [`MAX_ENTRIES`] stimuli or [`MAX_SET_FRAMES`] frames.
+fn check_size(entries: usize, frames: usize) -> Result<(), SpecError> {
+    if entries > MAX_ENTRIES {
+        return Err(fail("spec", format!("the set has more than {MAX_ENTRIES} stimuli")));
+    }
+    if frames > MAX_SET_FRAMES {
+        return Err(fail("spec", format!("the set renders more than {MAX_SET_FRAMES} frames")));
+    }
+    Ok(())
+}
+
 fn check_timing(t: &ClipTiming) -> Result<(), String> {
     for (what, v) in [("onset_s", t.onset_s), ("apex_s", t.apex_s), ("offset_s", t.offset_s)] {
         if !v.is_finite() || v < 0.0 {
-            return Err(format!("timing: {what} = {v} is a negative (or not a finite) duration"));
+            return Err(format!("timing: {what} = {} is a negative (or not a finite) duration", crate::engine::timeline::short_number(v)));
         }
     }
     if t.total_s() <= 0.0 {
         return Err("timing: the clip lasts 0 s".into());
+    }
+    let max = crate::engine::timeline::MAX_DURATION_S;
+    if t.total_s() > max {
+        return Err(format!("timing: the clip lasts {} s; at most {max} s", crate::engine::timeline::short_number(t.total_s())));
     }
     Ok(())
 }
@@ -442,5 +497,19 @@ mod tests {
         assert!(e.contains("exactly one of"), "{e}");
         let e = err("[[group]]\nname = \"g\"\nexpressions = [\"1\"]\nstils = [1]\n");
         assert!(e.contains("unknown field"), "{e}");
+    }
+
+    #[test]
+    fn sizes_are_bounded_before_anything_is_made() {
+        let at = std::time::Instant::now();
+        let e = err("[[group]]\nname = \"g\"\nexpressions = [\"12\"]\nvideo_peaks = [1]\ntiming = { onset_s = 3e10, apex_s = 0.0, offset_s = 0.0 }\n");
+        assert!(e.contains("at most 300 s"), "{e}");
+        let long = format!("{}", ["1"; 30_000].join("+"));
+        let e = err(&format!("[[group]]\nname = \"g\"\nexpressions = [\"{long}\"]\nstills = [1]\n"));
+        assert!(e.contains("at most 512") && e.len() < 200, "{}", e.len());
+        let many = (0..200).map(|_| "\"12\"").collect::<Vec<_>>().join(", ");
+        let e = err(&format!("[[group]]\nname = \"g\"\nexpressions = [{many}]\nvideo_peaks = [1, 1, 1, 1, 1, 1, 1, 1, 1, 1]\nidentity = \"each\"\ntiming = {{ onset_s = 100.0, apex_s = 100.0, offset_s = 100.0 }}\n"));
+        assert!(e.contains("more than 2000000 frames"), "{e}");
+        assert!(at.elapsed() < std::time::Duration::from_secs(5));
     }
 }

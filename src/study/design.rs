@@ -327,6 +327,9 @@ pub fn believability_item() -> LikertItem {
 
 impl StudyDesign {
     pub fn from_toml(text: &str) -> Result<StudyDesign, DesignError> {
+        if text.len() > MAX_DESIGN_BYTES {
+            return Err(fail("file", format!("{} bytes is over the 64 KiB a study design may have", text.len())));
+        }
         let raw: RawDesign = toml::from_str(text).map_err(|e| fail(toml_field(&e), e.message().to_string()))?;
         raw.validate()
     }
@@ -350,13 +353,32 @@ fn toml_field(e: &toml::de::Error) -> String {
     }
 }
 
+/// Longest design text read.
+pub const MAX_DESIGN_BYTES: usize = 64 * 1024;
+
 impl RawDesign {
+    /// Upper bounds on the numbers that size a participant's plan (checked before any plan is made).
+    fn check_bounds(&self) -> Result<(), DesignError> {
+        let bounds = [
+            ("trials_per_participant", self.trials_per_participant, 5_000),
+            ("ratings_per_stimulus", self.ratings_per_stimulus, 100_000),
+            ("practice_trials", self.practice_trials, 50),
+            ("attention.checks", self.attention.checks.len(), 50),
+            ("rating.item", self.rating.item.len(), 20),
+            ("reservation_minutes", self.reservation_minutes as usize, 7 * 24 * 60),
+        ];
+        match bounds.into_iter().find(|(_, value, max)| value > max) {
+            Some((field, value, max)) => Err(fail(field, format!("{value} is over the limit of {max}"))),
+            None => Ok(()),
+        }
+    }
+
     fn validate(self) -> Result<StudyDesign, DesignError> {
         let slug_ok = !self.slug.is_empty()
             && self.slug.len() <= 64
             && self.slug.bytes().all(|b| b.is_ascii_lowercase() || b.is_ascii_digit() || b == b'-' || b == b'_');
         if !slug_ok {
-            return Err(fail("slug", format!("\"{}\" must be 1-64 characters of a-z, 0-9, '-' or '_'", self.slug)));
+            return Err(fail("slug", format!("\"{}\" must be 1-64 characters of a-z, 0-9, '-' or '_'", super::excerpt(&self.slug, 64))));
         }
         for (field, text) in [("title", &self.title), ("group", &self.group), ("stimuli", &self.stimuli), ("consent", &self.consent)] {
             if text.trim().is_empty() {
@@ -372,6 +394,7 @@ impl RawDesign {
         if self.reservation_minutes == 0 {
             return Err(fail("reservation_minutes", "must be at least 1"));
         }
+        self.check_bounds()?;
         let items = match self.task {
             TaskKind::Emotion => self.emotion.believability.then(believability_item).into_iter().collect(),
             TaskKind::Rating => {
@@ -440,7 +463,7 @@ fn check_attention(task: TaskKind, policy: &AttentionPolicy, items: &[LikertItem
             (_, measure) => items.iter().any(|item| item.measure == measure && check.value.parse::<u8>().is_ok_and(|v| item.values().contains(&v))),
         };
         if !ok {
-            return Err(fail(field, format!("answer {}=\"{}\" is not a possible answer of this {} task", check.measure, check.value, task.as_str())));
+            return Err(fail(field, format!("answer {}=\"{}\" is not a possible answer of this {} task", super::excerpt(&check.measure, 32), super::excerpt(&check.value, 32), task.as_str())));
         }
     }
     Ok(())

@@ -12,7 +12,18 @@ pub mod design;
 pub mod session;
 pub mod task;
 pub mod templates;
+pub mod worker;
 
 pub use design::{DesignError, Platform, StudyDesign, TaskKind};
+
+/// At most `max` characters of `text` for a message, with `…` when cut (messages quote only a
+/// short excerpt of what was sent).
+pub fn excerpt(text: &str, max: usize) -> String {
+    let mut cut: String = text.chars().take(max).collect();
+    if cut.len() < text.len() {
+        cut.push('…');
+    }
+    cut
+}
 pub use session::SessionState;
 pub use task::{Answer, AnswerError, Submission};

@@ -44,7 +44,7 @@ pub struct AnswerError {
 }
 
 fn fail(field: impl Into<String>, message: impl Into<String>) -> AnswerError {
-    AnswerError { field: field.into(), message: message.into() }
+    AnswerError { field: super::excerpt(&field.into(), 64), message: super::excerpt(&message.into(), 200) }
 }
 
 /// The validated judgements of one trial, in a fixed order (main measure, then items).

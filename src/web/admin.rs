@@ -1,21 +1,25 @@
 //! Admin pages and the export API.
 //!
-//! Login with a password (argon2) opens a session cookie (HttpOnly, SameSite=Strict); every
-//! state-changing form carries the session's CSRF token, and a cross-origin `Origin` header is
-//! refused. Roles: viewers see progress and export, researchers also create, open, close and
-//! exclude, admins everything. `GET /api/v1/studies/{slug}/{file}` serves the same streamed
-//! exports to a bearer token made with `facslab admin token`.
+//! Login with a password (argon2, one check at a time on a blocking thread) opens a session
+//! cookie (HttpOnly, SameSite=Strict, Secure behind HTTPS); repeated wrong passwords for an
+//! account or from an address get 429 with `Retry-After` until the window ends. Every
+//! state-changing form carries the session's CSRF token (compared in constant time), and a
+//! cross-origin `Origin` header is refused. Roles: viewers see progress and export, researchers
+//! also create, open, close and exclude, admins everything. `GET /api/v1/studies/{slug}/{file}`
+//! serves the same streamed exports to a bearer token made with `facslab admin token`, which
+//! reaches one study until it expires.
 
 use std::collections::HashMap;
 
 use axum::Router;
 use axum::body::Body;
 use axum::extract::{Form, Path, Query, State};
-use axum::http::{HeaderMap, header};
+use axum::http::{HeaderMap, StatusCode, header};
 use axum::response::{IntoResponse, Redirect, Response};
 use axum::routing::{get, post};
 use serde_json::json;
 
+use super::limit::{self, ClientAddress};
 use super::{AppState, WebError, cookie, merge};
 use crate::db::admin::{AdminSession, Role};
 use crate::db::export::{Format, Scope, codebook};
@@ -54,7 +58,8 @@ async fn admin(app: &AppState, headers: &HeaderMap, role: Role) -> Result<AdminS
 /// Like [`admin`], for a state-changing form: also checks the CSRF token and the origin.
 async fn admin_post(app: &AppState, headers: &HeaderMap, form: &HashMap<String, String>, role: Role) -> Result<AdminSession, WebError> {
     let session = admin(app, headers, role).await?;
-    if form.get("csrf").map(String::as_str) != Some(session.csrf_token.as_str()) {
+    let sent = form.get("csrf").map(String::as_bytes).unwrap_or_default();
+    if !bool::from(subtle::ConstantTimeEq::ct_eq(sent, session.csrf_token.as_bytes())) {
         return Err(WebError::Forbidden("the form's security token is missing or stale; reload the page and try again".into()));
     }
     let host = headers.get(header::HOST).and_then(|h| h.to_str().ok()).unwrap_or("");
@@ -85,17 +90,48 @@ async fn login_page(State(app): State<AppState>) -> Response {
     or_login(app.render("admin_login.html", &merge(base(None, "Log in"), json!({ "error": null }))))
 }
 
-async fn login(State(app): State<AppState>, Form(form): Form<HashMap<String, String>>) -> Response {
+/// A 429 page saying when to try again.
+fn too_many(app: &AppState, wait: std::time::Duration) -> Response {
+    let minutes = wait.as_secs().div_ceil(60);
+    let context = merge(base(None, "Log in"), json!({ "error": format!("Too many wrong passwords. Please try again in {minutes} minute(s).") }));
+    let mut page = or_login(app.render("admin_login.html", &context));
+    *page.status_mut() = StatusCode::TOO_MANY_REQUESTS;
+    if let Ok(value) = limit::retry_after(wait).parse() {
+        page.headers_mut().insert(header::RETRY_AFTER, value);
+    }
+    page
+}
+
+async fn login(State(app): State<AppState>, address: ClientAddress, Form(form): Form<HashMap<String, String>>) -> Response {
     let (user, password) = (form.get("username").cloned().unwrap_or_default(), form.get("password").cloned().unwrap_or_default());
+    if user.len() > 64 || password.len() > crate::db::password::MAX_LEN * 4 {
+        return WebError::BadRequest("the username or password is too long".into()).into_response();
+    }
+    let edge = &app.edge;
+    let account = user.trim().to_lowercase();
+    let address = address.key();
+    // Every attempt counts before the password is checked, so a locked account or address costs
+    // no argon2 work; a successful login is taken off again.
+    let limited = edge.login_accounts.hit(&account).and(address.as_deref().map_or(Ok(()), |a| edge.login_addresses.hit(a)));
+    if let Err(wait) = limited {
+        return too_many(&app, wait);
+    }
+    let Ok(Ok(_permit)) = tokio::time::timeout(std::time::Duration::from_secs(5), edge.password_checks.acquire()).await else {
+        return WebError::Unavailable("too many logins at once; please try again in a moment".into()).into_response();
+    };
     match app.db.login(&user, &password).await {
         Ok(Some(token)) => {
-            let cookie = format!("{COOKIE}={token}; Path=/; HttpOnly; SameSite=Strict; Max-Age=43200");
+            edge.login_accounts.clear(&account);
+            if let Some(a) = address.as_deref() {
+                edge.login_addresses.forgive(a);
+            }
+            let cookie = edge.cookie(COOKIE, &token, 43_200, "Strict");
             ([(header::SET_COOKIE, cookie)], Redirect::to("/admin")).into_response()
         }
         Ok(None) => {
             let page = app.render("admin_login.html", &merge(base(None, "Log in"), json!({ "error": "Unknown username or wrong password." })));
             let mut page = or_login(page);
-            *page.status_mut() = axum::http::StatusCode::UNAUTHORIZED;
+            *page.status_mut() = StatusCode::UNAUTHORIZED;
             page
         }
         Err(e) => WebError::from(e).into_response(),
@@ -108,7 +144,7 @@ async fn logout(State(app): State<AppState>, headers: HeaderMap, Form(form): For
         if let Some(token) = session_cookie(&headers) {
             app.db.logout(token).await?;
         }
-        let expired = format!("{COOKIE}=; Path=/; HttpOnly; SameSite=Strict; Max-Age=0");
+        let expired = app.edge.cookie(COOKIE, "", 0, "Strict");
         Ok(([(header::SET_COOKIE, expired)], Redirect::to("/admin/login")).into_response())
     }
     .await)
@@ -201,7 +237,7 @@ async fn create_study(State(app): State<AppState>, headers: HeaderMap, Form(form
                 let message = e.to_string();
                 let context = json!({ "templates": [], "error": message, "spec": spec, "set_dir": set_dir });
                 let mut page = app.render("admin_new.html", &merge(base(Some(&session), "New study"), context))?;
-                *page.status_mut() = axum::http::StatusCode::UNPROCESSABLE_ENTITY;
+                *page.status_mut() = StatusCode::UNPROCESSABLE_ENTITY;
                 Ok(page)
             }
         }
@@ -219,14 +255,15 @@ async fn export_by_session(State(app): State<AppState>, headers: HeaderMap, Path
 
 async fn export_by_token(State(app): State<AppState>, headers: HeaderMap, Path((slug, file)): Path<(String, String)>, Query(q): Query<HashMap<String, String>>) -> Response {
     let token = headers.get(header::AUTHORIZATION).and_then(|v| v.to_str().ok()).and_then(|v| v.strip_prefix("Bearer ")).unwrap_or("");
-    match app.db.api_token_valid(token).await {
-        Ok(true) => match export(&app, &slug, &file, &q).await {
-            Ok(r) => r,
-            Err(e) => e.json(),
-        },
-        Ok(false) => WebError::Unauthorized.json(),
-        Err(e) => WebError::from(e).json(),
-    }
+    let result = async {
+        let scope = app.db.api_token_scope(token).await?.ok_or(WebError::Unauthorized)?;
+        let study = app.study(&slug).await?;
+        if scope.study_id != study.row.id || scope.role < Role::Viewer {
+            return Err(WebError::Forbidden("this token does not reach this study".into()));
+        }
+        export(&app, &slug, &file, &q).await
+    };
+    result.await.unwrap_or_else(WebError::json)
 }
 
 /// A streamed export (`responses.csv`, `wide.csv`, `responses.json`) or the codebook.

@@ -27,6 +27,30 @@ pub struct ServeArgs {
     /// Port to listen on (0 = any free port).
     #[arg(long, default_value_t = 8080)]
     pub port: u16,
+    /// The address people use (e.g. https://faces.example.org behind a TLS proxy): with
+    /// https, cookies are marked Secure and responses carry Strict-Transport-Security.
+    #[arg(long)]
+    pub public_url: Option<String>,
+    /// A reverse proxy in front appends the client's address to X-Forwarded-For (used for
+    /// the per-address limits instead of the proxy's own address).
+    #[arg(long)]
+    pub trusted_proxy: bool,
+    /// Starts one client address may make in 5 minutes (a lab behind one address may need more).
+    #[arg(long, default_value_t = 30, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    pub starts_per_address: u32,
+}
+
+impl ServeArgs {
+    /// The edge configuration these options ask for.
+    pub fn edge(&self) -> anyhow::Result<super::EdgeConfig> {
+        let https = match self.public_url.as_deref() {
+            None => false,
+            Some(url) if url.starts_with("https://") && url.len() > 8 => true,
+            Some(url) if url.starts_with("http://") && url.len() > 7 => false,
+            Some(url) => bail!("--public-url \"{}\" is not an http:// or https:// URL", url.chars().take(60).collect::<String>()),
+        };
+        Ok(super::EdgeConfig { https, trusted_proxy: self.trusted_proxy, starts_per_address: self.starts_per_address })
+    }
 }
 
 #[derive(Args)]
@@ -92,10 +116,19 @@ pub enum AdminCommand {
         #[arg(long, default_value = "facslab.db")]
         db: PathBuf,
     },
-    /// Make a token for the export API (printed once).
-    #[command(after_help = "Example:\n  facslab admin token alice --label nightly-backup --db lab.db\n  curl -H \"Authorization: Bearer TOKEN\" http://host/api/v1/studies/exp3/responses.csv")]
+    /// Make a token for the export API that reaches one study until it expires (printed once).
+    #[command(after_help = "Example:\n  facslab admin token alice --study exp3 --days 30 --label nightly-backup --db lab.db\n  curl -H \"Authorization: Bearer TOKEN\" http://host/api/v1/studies/exp3/responses.csv")]
     Token {
         username: String,
+        /// The study the token reaches (its slug).
+        #[arg(long)]
+        study: String,
+        /// What the token may do (at most the owner's role).
+        #[arg(long, default_value = "viewer", value_parser = ["viewer", "researcher"])]
+        role: String,
+        /// Days until the token expires (1 to 365).
+        #[arg(long, default_value_t = 30)]
+        days: u32,
         #[arg(long, default_value = "api")]
         label: String,
         #[arg(long, default_value = "facslab.db")]
@@ -138,8 +171,9 @@ async fn open(db: &Path) -> anyhow::Result<Db> {
 
 pub fn serve_command(args: ServeArgs) -> anyhow::Result<()> {
     runtime()?.block_on(async {
+        let edge = args.edge()?;
         let db = open(&args.db).await?;
-        let state = AppState::new(db)?;
+        let state = AppState::new(db)?.with_edge(edge);
         serve(state, SocketAddr::new(args.host, args.port), |addr| {
             println!("facslab study server on http://{addr}/admin  (database {}; Ctrl-C stops)", args.db.display());
         })
@@ -201,8 +235,9 @@ pub fn admin_command(command: AdminCommand) -> anyhow::Result<()> {
                 Ok(())
             })
         }
-        AdminCommand::Token { username, label, db } => runtime()?.block_on(async {
-            let token = open(&db).await?.create_api_token(&username, &label).await?;
+        AdminCommand::Token { username, study, role, days, label, db } => runtime()?.block_on(async {
+            let role = Role::parse(&role).unwrap_or(Role::Viewer);
+            let token = open(&db).await?.create_api_token(&username, &study, role, days, &label).await?;
             println!("{token}");
             eprintln!("(shown once: keep it like a password)");
             Ok(())

@@ -4,17 +4,22 @@
 //! In: HTTP requests. Out: pages, media and exports; every state change goes through
 //! `crate::db`. Invariants: participant pages, URLs and headers never name a stimulus's AUs,
 //! emotion or file (media are served by trial position under the participant's secret token);
-//! request bodies are capped; every response carries no-referrer, nosniff and a strict CSP.
+//! request bodies are capped; every response carries no-referrer, nosniff and a strict CSP;
+//! served behind HTTPS (`--public-url https://…`) cookies are `Secure` and responses carry HSTS;
+//! logins and starts are rate limited per account and per client address ([`limit`]).
 
 pub mod admin;
 pub mod cli;
 pub mod error;
+pub mod extract;
+pub mod limit;
 pub mod participant;
 
 use std::collections::HashMap;
 use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::sync::{Arc, RwLock};
+use std::time::Duration;
 
 use axum::Router;
 use axum::extract::{DefaultBodyLimit, Path};
@@ -40,12 +45,69 @@ pub struct LoadedStudy {
     pub set_dir: PathBuf,
 }
 
+/// How the server meets the world: behind HTTPS or not, behind a proxy or not, how many starts
+/// one address may make.
+#[derive(Debug, Clone)]
+pub struct EdgeConfig {
+    /// Served at an `https://` URL: cookies get `Secure`, responses get HSTS.
+    pub https: bool,
+    /// A reverse proxy in front appends the client's address to `X-Forwarded-For`.
+    pub trusted_proxy: bool,
+    /// Starts one client address may make per [`START_WINDOW`].
+    pub starts_per_address: u32,
+}
+
+/// The window of [`EdgeConfig::starts_per_address`].
+pub const START_WINDOW: Duration = Duration::from_secs(300);
+/// Wrong passwords per account, and per client address, in [`LOGIN_WINDOW`] before logins
+/// from there are refused with 429 until the window ends (the right password too).
+pub const LOGIN_FAILURES_PER_ACCOUNT: u32 = 5;
+pub const LOGIN_FAILURES_PER_ADDRESS: u32 = 20;
+pub const LOGIN_WINDOW: Duration = Duration::from_secs(900);
+
+impl Default for EdgeConfig {
+    fn default() -> EdgeConfig {
+        EdgeConfig { https: false, trusted_proxy: false, starts_per_address: 30 }
+    }
+}
+
+/// The edge's configuration with its rate limiters.
+#[derive(Debug)]
+pub struct Edge {
+    pub config: EdgeConfig,
+    pub login_accounts: limit::Limiter,
+    pub login_addresses: limit::Limiter,
+    pub starts: limit::Limiter,
+    /// One password check (argon2, a core for tens of milliseconds) at a time, so a flood of
+    /// logins leaves the other core to everyone else.
+    pub password_checks: tokio::sync::Semaphore,
+}
+
+impl Edge {
+    fn new(config: EdgeConfig) -> Edge {
+        Edge {
+            login_accounts: limit::Limiter::new(LOGIN_FAILURES_PER_ACCOUNT, LOGIN_WINDOW),
+            login_addresses: limit::Limiter::new(LOGIN_FAILURES_PER_ADDRESS, LOGIN_WINDOW),
+            starts: limit::Limiter::new(config.starts_per_address, START_WINDOW),
+            password_checks: tokio::sync::Semaphore::new(1),
+            config,
+        }
+    }
+
+    /// A `Set-Cookie` value: HttpOnly, on the whole site, `Secure` behind HTTPS.
+    pub fn cookie(&self, name: &str, value: &str, max_age_s: u64, same_site: &str) -> String {
+        let secure = if self.config.https { "; Secure" } else { "" };
+        format!("{name}={value}; Path=/; HttpOnly; SameSite={same_site}; Max-Age={max_age_s}{secure}")
+    }
+}
+
 /// What every handler shares.
 #[derive(Clone)]
 pub struct AppState {
     pub db: Db,
     pub templates: Arc<tera::Tera>,
     studies: Arc<RwLock<HashMap<String, Arc<LoadedStudy>>>>,
+    pub edge: Arc<Edge>,
 }
 
 const TEMPLATES: [(&str, &str); 12] = [
@@ -73,14 +135,20 @@ impl AppState {
     pub fn new(db: Db) -> Result<AppState, WebError> {
         let mut tera = tera::Tera::new();
         tera.autoescape_on([".html"]);
-        tera.add_raw_templates(TEMPLATES).map_err(|e| WebError::Internal(format!("templates: {e}")))?;
-        Ok(AppState { db, templates: Arc::new(tera), studies: Arc::default() })
+        tera.add_raw_templates(TEMPLATES).map_err(|e| WebError::internal("templates", e))?;
+        Ok(AppState { db, templates: Arc::new(tera), studies: Arc::default(), edge: Arc::new(Edge::new(EdgeConfig::default())) })
+    }
+
+    /// The same state with another edge configuration.
+    pub fn with_edge(mut self, config: EdgeConfig) -> AppState {
+        self.edge = Arc::new(Edge::new(config));
+        self
     }
 
     /// Renders a template with a serialisable context.
     pub fn render(&self, name: &str, context: &impl serde::Serialize) -> Result<Response, WebError> {
-        let context = tera::Context::from_serialize(context).map_err(|e| WebError::Internal(format!("template context: {e}")))?;
-        let html = self.templates.render(name, &context).map_err(|e| WebError::Internal(format!("template {name}: {e}")))?;
+        let context = tera::Context::from_serialize(context).map_err(|e| WebError::internal("template context", e))?;
+        let html = self.templates.render(name, &context).map_err(|e| WebError::internal(format!("template {name}"), e))?;
         Ok(axum::response::Html(html).into_response())
     }
 
@@ -130,6 +198,7 @@ pub fn merge(mut base: serde_json::Value, extra: serde_json::Value) -> serde_jso
 
 /// The whole app.
 pub fn router(state: AppState) -> Router {
+    let hsts = state.edge.config.https.then(|| HeaderValue::from_static("max-age=31536000; includeSubDomains"));
     let csp = "default-src 'self'; img-src 'self'; media-src 'self'; style-src 'self' 'unsafe-inline'; script-src 'self'; form-action 'self' https:; frame-ancestors 'none'; base-uri 'none'";
     Router::new()
         .merge(participant::routes())
@@ -141,6 +210,7 @@ pub fn router(state: AppState) -> Router {
         .layer(SetResponseHeaderLayer::overriding(header::X_CONTENT_TYPE_OPTIONS, HeaderValue::from_static("nosniff")))
         .layer(SetResponseHeaderLayer::if_not_present(header::CONTENT_SECURITY_POLICY, HeaderValue::from_static(csp)))
         .layer(SetResponseHeaderLayer::if_not_present(header::CACHE_CONTROL, HeaderValue::from_static("no-store")))
+        .layer(SetResponseHeaderLayer::overriding(header::STRICT_TRANSPORT_SECURITY, hsts))
         .with_state(state)
 }
 
@@ -149,13 +219,14 @@ async fn asset(Path(file): Path<String>) -> Result<Response, WebError> {
     Ok(([(header::CONTENT_TYPE, *content_type), (header::CACHE_CONTROL, "public, max-age=300")], *body).into_response())
 }
 
-/// Serves the app on `addr` until Ctrl-C, abandoning expired reservations once a minute.
+/// Serves the app on `addr` until Ctrl-C, abandoning expired reservations and deleting expired
+/// admin sessions once a minute.
 pub async fn serve(state: AppState, addr: SocketAddr, on_ready: impl FnOnce(SocketAddr)) -> anyhow::Result<()> {
     let listener = tokio::net::TcpListener::bind(addr).await.map_err(|e| anyhow::anyhow!("cannot listen on {addr}: {e}"))?;
     let bound = listener.local_addr()?;
     let reaper = tokio::spawn(reap_forever(state.db.clone()));
     on_ready(bound);
-    axum::serve(listener, router(state.clone()))
+    axum::serve(listener, router(state.clone()).into_make_service_with_connect_info::<SocketAddr>())
         .with_graceful_shutdown(async {
             let _ = tokio::signal::ctrl_c().await;
         })
@@ -171,6 +242,9 @@ async fn reap_forever(db: Db) {
         tick.tick().await;
         if let Err(e) = db.reap(crate::db::now_ms()).await {
             eprintln!("reaper: {e}");
+        }
+        if let Err(e) = db.purge_expired_sessions(crate::db::now_ms()).await {
+            eprintln!("expired sessions: {e}");
         }
     }
 }

@@ -15,13 +15,15 @@ use axum::routing::{get, post};
 use axum::{Json, Router};
 use serde_json::json;
 
+use super::extract::{ParticipationToken, TrialPosition};
+use super::limit::ClientAddress;
 use super::{AppState, LoadedStudy, WebError, cookie, merge};
 use crate::db::participants::{Demographics, Participation, SaveOutcome, SaveTiming, Started, TrialRow};
-use crate::db::secret_token;
+use crate::db::{secret_token, token_sha256};
 use crate::facs::{Catalog, Region};
 use crate::study::assign::TrialKind;
 use crate::study::design::emotion_choices;
-use crate::study::{Platform, SessionState, Submission, TaskKind};
+use crate::study::{Platform, SessionState, Submission, TaskKind, worker};
 
 pub fn routes() -> Router<AppState> {
     Router::new()
@@ -66,19 +68,23 @@ async fn landing(State(app): State<AppState>, Path(slug): Path<String>, Query(qu
     )
 }
 
-/// The platform parameters a study keeps, checked; the worker id must be there for a platform.
+/// The platform parameters a study keeps, checked; the worker id must be there for a platform,
+/// and is normalised to the platform's one spelling ([`crate::study::worker`]).
 fn entry_params(platform: Platform, given: &HashMap<String, String>) -> Result<Vec<(String, String)>, WebError> {
     let mut kept = Vec::new();
     for name in platform.entry_params() {
-        if let Some(value) = given.get(*name) {
-            if value.len() > 200 || value.chars().any(char::is_control) {
-                return Err(WebError::BadRequest(format!("the link's parameter {name} is malformed")));
-            }
-            kept.push((name.to_string(), value.clone()));
-        }
+        let Some(value) = given.get(*name) else { continue };
+        let value = if platform.worker_param() == Some(*name) {
+            worker::normalise(platform, value).map_err(|e| WebError::BadRequest(e.to_string()))?
+        } else if value.len() > 200 || value.chars().any(char::is_control) {
+            return Err(WebError::BadRequest(format!("the link's parameter {name} is malformed")));
+        } else {
+            value.clone()
+        };
+        kept.push((name.to_string(), value));
     }
     if let Some(worker) = platform.worker_param()
-        && !kept.iter().any(|(n, v)| n == worker && !v.trim().is_empty())
+        && !kept.iter().any(|(n, _)| n == worker)
     {
         return Err(WebError::BadRequest(format!("this study link needs the {} parameter {worker}; please use the link from {}", platform.as_str(), platform.as_str())));
     }
@@ -90,8 +96,20 @@ fn cookie_name(slug: &str) -> String {
 }
 
 
-async fn start(State(app): State<AppState>, Path(slug): Path<String>, headers: HeaderMap, Form(form): Form<Vec<(String, String)>>) -> Result<Response, WebError> {
+/// Trials past the current one whose media may be fetched already (for preloading).
+pub const PRELOAD_AHEAD: i64 = 2;
+
+/// A 429 answer with `Retry-After`.
+fn too_many_starts(wait: std::time::Duration) -> Response {
+    let message = format!("Too many starts from your network just now. Please try again in {} minute(s).", wait.as_secs().div_ceil(60));
+    (StatusCode::TOO_MANY_REQUESTS, [(header::RETRY_AFTER, super::limit::retry_after(wait))], message).into_response()
+}
+
+async fn start(State(app): State<AppState>, Path(slug): Path<String>, address: ClientAddress, headers: HeaderMap, Form(form): Form<Vec<(String, String)>>) -> Result<Response, WebError> {
     let study = app.study(&slug).await?;
+    if let Some(Err(wait)) = address.key().map(|a| app.edge.starts.hit(&a)) {
+        return Ok(too_many_starts(wait));
+    }
     let status = app.db.study_by_slug(&slug).await?.map(|s| s.status).unwrap_or_default();
     if status != "open" {
         return Err(WebError::Conflict("this study is not open at the moment".into()));
@@ -110,7 +128,12 @@ async fn start(State(app): State<AppState>, Path(slug): Path<String>, headers: H
     };
     let params_json = serde_json::to_string(&params.iter().cloned().collect::<HashMap<_, _>>()).unwrap_or_default();
     let token = match app.db.start_participation(study.row.id, &study.design, &worker, &params_json).await? {
-        Started::New(token) | Started::Existing(token) => token,
+        Started::New(token) => token,
+        // The participation's token goes only to the browser that holds it already.
+        Started::Existing(existing) => match cookie(&headers, &cookie_name(&slug)) {
+            Some(held) if same_secret(&token_sha256(held), &existing) => held.to_string(),
+            _ => return started_elsewhere(&app, &study),
+        },
         Started::Full => {
             return app.render(
                 "landing.html",
@@ -118,19 +141,33 @@ async fn start(State(app): State<AppState>, Path(slug): Path<String>, headers: H
             );
         }
     };
-    let set_cookie = format!("{}={token}; Path=/; HttpOnly; SameSite=Lax; Max-Age=604800", cookie_name(&slug));
+    let set_cookie = app.edge.cookie(&cookie_name(&slug), &token, 604_800, "Lax");
     Ok(([(header::SET_COOKIE, set_cookie)], Redirect::to(&format!("/p/{token}"))).into_response())
 }
 
-/// Whether `token` looks like a participation token at all (32 hex digits).
-fn well_formed(token: &str) -> Result<(), WebError> {
-    if token.len() == 32 && token.bytes().all(|b| b.is_ascii_hexdigit()) { Ok(()) } else { Err(WebError::NotFound) }
+/// Whether two secrets are equal, in time that does not depend on where they differ.
+fn same_secret(a: &str, b: &str) -> bool {
+    use subtle::ConstantTimeEq;
+    a.len() == b.len() && bool::from(a.as_bytes().ct_eq(b.as_bytes()))
+}
+
+/// A worker id that has a participation, from a browser without its cookie: the participation
+/// stays where it was started (409), and the page says how to go on there.
+fn started_elsewhere(app: &AppState, study: &LoadedStudy) -> Result<Response, WebError> {
+    let context = json!({
+        "heading": "You started this study in another browser",
+        "message": "This study was already started with your id in another browser or on another device. \
+                    To go on, open the study link again in the browser where you started it: it takes you back to where you stopped.\n\n\
+                    If you cannot use that browser any more, please contact the researchers through the recruitment platform.",
+    });
+    let mut page = app.render("message.html", &merge(page(study, "Already started"), context))?;
+    *page.status_mut() = StatusCode::CONFLICT;
+    Ok(page)
 }
 
 /// A participation with its study, or 404.
-async fn participation(app: &AppState, token: &str) -> Result<(Participation, std::sync::Arc<LoadedStudy>), WebError> {
-    well_formed(token)?;
-    let p = app.db.participation(token).await?.ok_or(WebError::NotFound)?;
+async fn participation(app: &AppState, token: &ParticipationToken) -> Result<(Participation, std::sync::Arc<LoadedStudy>), WebError> {
+    let p = app.db.participation(token.as_str()).await?.ok_or(WebError::NotFound)?;
     let study = app.study_by_id(p.study_id).await?;
     Ok((p, study))
 }
@@ -138,15 +175,14 @@ async fn participation(app: &AppState, token: &str) -> Result<(Participation, st
 /// The study of a participation, or 404, for writes that need no more: the writer checks the
 /// participation's state itself, and the study behind a token is known from memory after the
 /// first request.
-async fn participation_study(app: &AppState, token: &str) -> Result<std::sync::Arc<LoadedStudy>, WebError> {
-    well_formed(token)?;
-    let study = app.db.participation_study(token).await?.ok_or(WebError::NotFound)?;
+async fn participation_study(app: &AppState, token: &ParticipationToken) -> Result<std::sync::Arc<LoadedStudy>, WebError> {
+    let study = app.db.participation_study(token.as_str()).await?.ok_or(WebError::NotFound)?;
     app.study_by_id(study).await
 }
 
 /// Where a participation goes next.
-fn next_url(p: &Participation, study: &LoadedStudy, trials: &[TrialRow]) -> String {
-    let t = &p.token;
+fn next_url(token: &ParticipationToken, p: &Participation, study: &LoadedStudy, trials: &[TrialRow]) -> String {
+    let t = token;
     match p.state {
         SessionState::Completed | SessionState::ScreenedOut | SessionState::Withdrawn | SessionState::Abandoned => format!("/p/{t}/done"),
         _ if !p.consented => format!("/p/{t}/consent"),
@@ -156,17 +192,17 @@ fn next_url(p: &Participation, study: &LoadedStudy, trials: &[TrialRow]) -> Stri
     }
 }
 
-async fn resume(State(app): State<AppState>, Path(token): Path<String>) -> Result<Response, WebError> {
+async fn resume(State(app): State<AppState>, token: ParticipationToken) -> Result<Response, WebError> {
     let (p, study) = participation(&app, &token).await?;
     let trials = app.db.trials(p.id).await?;
-    Ok(Redirect::to(&next_url(&p, &study, &trials)).into_response())
+    Ok(Redirect::to(&next_url(&token, &p, &study, &trials)).into_response())
 }
 
 /// Sends a participant who is not at `step` to where they belong.
-async fn at_step(app: &AppState, token: &str, step: &str) -> Result<Result<(Participation, std::sync::Arc<LoadedStudy>, Vec<TrialRow>), Response>, WebError> {
+async fn at_step(app: &AppState, token: &ParticipationToken, step: &str) -> Result<Result<(Participation, std::sync::Arc<LoadedStudy>, Vec<TrialRow>), Response>, WebError> {
     let (p, study) = participation(app, token).await?;
     let trials = app.db.trials(p.id).await?;
-    let next = next_url(&p, &study, &trials);
+    let next = next_url(&token, &p, &study, &trials);
     let here = next.ends_with(step) || (step == "/trial" && next.ends_with("/instructions") && p.state == SessionState::Active);
     if !here {
         return Ok(Err(Redirect::to(&next).into_response()));
@@ -174,7 +210,7 @@ async fn at_step(app: &AppState, token: &str, step: &str) -> Result<Result<(Part
     Ok(Ok((p, study, trials)))
 }
 
-async fn consent_page(State(app): State<AppState>, Path(token): Path<String>) -> Result<Response, WebError> {
+async fn consent_page(State(app): State<AppState>, token: ParticipationToken) -> Result<Response, WebError> {
     let (_, study, _) = match at_step(&app, &token, "/consent").await? {
         Ok(v) => v,
         Err(redirect) => return Ok(redirect),
@@ -182,16 +218,16 @@ async fn consent_page(State(app): State<AppState>, Path(token): Path<String>) ->
     app.render("consent.html", &merge(page(&study, "Consent"), json!({ "token": token, "consent": study.design.consent })))
 }
 
-async fn consent(State(app): State<AppState>, Path(token): Path<String>, Form(form): Form<HashMap<String, String>>) -> Result<Response, WebError> {
+async fn consent(State(app): State<AppState>, token: ParticipationToken, Form(form): Form<HashMap<String, String>>) -> Result<Response, WebError> {
     let study = participation_study(&app, &token).await?;
     if form.get("agree").map(String::as_str) != Some("1") {
         return Err(WebError::BadRequest("please tick the consent box to take part, or close this page".into()));
     }
-    app.db.give_consent(&token, &study.design.consent_sha256()).await?;
+    app.db.give_consent(token.as_str(), &study.design.consent_sha256()).await?;
     Ok(Redirect::to(&format!("/p/{token}")).into_response())
 }
 
-fn demographics_context(study: &LoadedStudy, token: &str, error: Option<&str>) -> serde_json::Value {
+fn demographics_context(study: &LoadedStudy, token: &ParticipationToken, error: Option<&str>) -> serde_json::Value {
     merge(
         page(study, "About you"),
         json!({
@@ -206,7 +242,7 @@ fn demographics_context(study: &LoadedStudy, token: &str, error: Option<&str>) -
     )
 }
 
-async fn demographics_page(State(app): State<AppState>, Path(token): Path<String>) -> Result<Response, WebError> {
+async fn demographics_page(State(app): State<AppState>, token: ParticipationToken) -> Result<Response, WebError> {
     let (_, study, _) = match at_step(&app, &token, "/demographics").await? {
         Ok(v) => v,
         Err(redirect) => return Ok(redirect),
@@ -230,16 +266,23 @@ fn read_demographics(form: &HashMap<String, String>) -> Result<Demographics, Str
     Ok(Demographics { age, gender: pick("gender", &GENDERS)?, ethnicity: pick("ethnicity", &ETHNICITIES)?, education: pick("education", &EDUCATION)? })
 }
 
-async fn demographics(State(app): State<AppState>, Path(token): Path<String>, Form(form): Form<HashMap<String, String>>) -> Result<Response, WebError> {
+async fn demographics(State(app): State<AppState>, token: ParticipationToken, Form(form): Form<HashMap<String, String>>) -> Result<Response, WebError> {
     let (p, study) = participation(&app, &token).await?;
     if !p.consented {
         return Ok(Redirect::to(&format!("/p/{token}")).into_response());
     }
     match read_demographics(&form) {
-        Ok(d) => {
-            app.db.save_demographics(&token, &d).await?;
-            Ok(Redirect::to(&format!("/p/{token}")).into_response())
-        }
+        Ok(d) => match app.db.save_demographics(token.as_str(), &d).await {
+            Ok(()) => Ok(Redirect::to(&format!("/p/{token}")).into_response()),
+            // Written once: a second post changes nothing.
+            Err(crate::db::DbError::Conflict(message)) => {
+                let context = json!({ "heading": "Already saved", "message": message, "redirect_url": format!("/p/{token}"), "redirect_label": "Continue" });
+                let mut page = app.render("message.html", &merge(page(&study, "About you"), context))?;
+                *page.status_mut() = StatusCode::CONFLICT;
+                Ok(page)
+            }
+            Err(e) => Err(e.into()),
+        },
         Err(message) => {
             let mut page = app.render("demographics.html", &demographics_context(&study, &token, Some(&message)))?;
             *page.status_mut() = StatusCode::UNPROCESSABLE_ENTITY;
@@ -248,7 +291,7 @@ async fn demographics(State(app): State<AppState>, Path(token): Path<String>, Fo
     }
 }
 
-async fn instructions(State(app): State<AppState>, Path(token): Path<String>) -> Result<Response, WebError> {
+async fn instructions(State(app): State<AppState>, token: ParticipationToken) -> Result<Response, WebError> {
     let (_, study, _) = match at_step(&app, &token, "/instructions").await? {
         Ok(v) => v,
         Err(redirect) => return Ok(redirect),
@@ -271,7 +314,7 @@ fn capitalised(text: &str) -> String {
     chars.next().map(|c| c.to_uppercase().chain(chars).collect()).unwrap_or_default()
 }
 
-async fn trial_page(State(app): State<AppState>, Path(token): Path<String>) -> Result<Response, WebError> {
+async fn trial_page(State(app): State<AppState>, token: ParticipationToken) -> Result<Response, WebError> {
     let (_, study, trials) = match at_step(&app, &token, "/trial").await? {
         Ok(v) => v,
         Err(redirect) => return Ok(redirect),
@@ -280,7 +323,7 @@ async fn trial_page(State(app): State<AppState>, Path(token): Path<String>) -> R
         return Ok(Redirect::to(&format!("/p/{token}")).into_response());
     };
     let design = &study.design;
-    let stimulus = study.stimuli.get(&trial.stimulus_id).ok_or_else(|| WebError::Internal(format!("stimulus {} missing from the study", trial.stimulus_id)))?;
+    let stimulus = study.stimuli.get(&trial.stimulus_id).ok_or_else(|| WebError::Internal { context: format!("stimulus {} missing from the study", trial.stimulus_id), source: None })?;
     let done = trials.iter().filter(|t| t.answered).count();
     let attention = trial.check_index.and_then(|i| design.attention.checks.get(i)).map(|c| c.instruction.clone());
     let description = (design.task == TaskKind::Rating).then(|| design.rating.descriptions.get(&stimulus.emotion).cloned()).flatten();
@@ -313,16 +356,16 @@ async fn trial_page(State(app): State<AppState>, Path(token): Path<String>) -> R
 }
 
 /// Validates and stores one answer; returns where the participant goes next.
-async fn save(app: &AppState, token: &str, position: i64, submission: Submission) -> Result<(SaveOutcome, String), WebError> {
+async fn save(app: &AppState, token: &ParticipationToken, position: i64, submission: Submission) -> Result<(SaveOutcome, String), WebError> {
     let study = participation_study(app, token).await?;
     let answer = submission.answer(&study.design)?;
     let timing = SaveTiming { rt_ms: submission.rt_ms, video_ended: submission.video_ended, load_failed: submission.load_failed };
-    let outcome = app.db.save_response(token, position, &submission.idempotency_key, &answer, timing, &study.design).await?;
+    let outcome = app.db.save_response(token.as_str(), position, &submission.idempotency_key, &answer, timing, &study.design).await?;
     let next = if outcome.state == SessionState::Active && outcome.remaining > 0 { format!("/p/{token}/trial") } else { format!("/p/{token}/done") };
     Ok((outcome, next))
 }
 
-async fn save_form(State(app): State<AppState>, Path((token, position)): Path<(String, i64)>, Form(form): Form<Vec<(String, String)>>) -> Result<Response, WebError> {
+async fn save_form(State(app): State<AppState>, token: ParticipationToken, TrialPosition(position): TrialPosition, Form(form): Form<Vec<(String, String)>>) -> Result<Response, WebError> {
     let submission = Submission::from_form(form)?;
     match save(&app, &token, position, submission).await {
         Ok((_, next)) => Ok(Redirect::to(&next).into_response()),
@@ -331,7 +374,7 @@ async fn save_form(State(app): State<AppState>, Path((token, position)): Path<(S
     }
 }
 
-async fn save_json(State(app): State<AppState>, Path((token, position)): Path<(String, i64)>, body: axum::body::Bytes) -> Response {
+async fn save_json(State(app): State<AppState>, token: ParticipationToken, TrialPosition(position): TrialPosition, body: axum::body::Bytes) -> Response {
     let submission: Submission = match serde_json::from_slice(&body) {
         Ok(s) => s,
         Err(e) => return WebError::BadRequest(format!("the save is not valid JSON: {e}")).json(),
@@ -344,15 +387,19 @@ async fn save_json(State(app): State<AppState>, Path((token, position)): Path<(S
 }
 
 /// The stimulus of a trial, by position only (the URL says nothing about what it shows).
-async fn media(State(app): State<AppState>, Path((token, position)): Path<(String, i64)>, headers: HeaderMap) -> Result<Response, WebError> {
+async fn media(State(app): State<AppState>, token: ParticipationToken, TrialPosition(position): TrialPosition, headers: HeaderMap) -> Result<Response, WebError> {
     let (p, study) = participation(&app, &token).await?;
-    if !p.state.is_open() {
+    // Media only for a participant at the trials (consent and the design's steps done), up to
+    // the current trial and the few after it.
+    let at_trials = p.state == SessionState::Active && (p.has_demographics || !study.design.demographics);
+    if !at_trials {
         return Err(WebError::NotFound);
     }
     let trials = app.db.trials(p.id).await?;
-    let trial = trials.iter().find(|t| t.position == position).ok_or(WebError::NotFound)?;
+    let current = trials.iter().find(|t| !t.answered).map_or(i64::MAX, |t| t.position);
+    let trial = trials.iter().find(|t| t.position == position && position <= current.saturating_add(PRELOAD_AHEAD)).ok_or(WebError::NotFound)?;
     let stimulus = study.stimuli.get(&trial.stimulus_id).ok_or(WebError::NotFound)?;
-    let bytes = tokio::fs::read(study.set_dir.join(&stimulus.file)).await.map_err(|e| WebError::Internal(format!("reading {}: {e}", stimulus.file)))?;
+    let bytes = tokio::fs::read(study.set_dir.join(&stimulus.file)).await.map_err(|e| WebError::internal(format!("reading {}", stimulus.file), e))?;
     let content_type = if stimulus.media == "video" { "video/mp4" } else { "image/png" };
     Ok(byte_range(bytes, content_type, headers.get(header::RANGE).and_then(|v| v.to_str().ok())))
 }
@@ -380,7 +427,7 @@ fn byte_range(bytes: Vec<u8>, content_type: &'static str, range: Option<&str>) -
 
 /// The end of a participation: debrief, completion code and the platform's redirect (only
 /// reachable once the last save is stored), or the screen-out, withdrawal or expiry message.
-async fn done(State(app): State<AppState>, Path(token): Path<String>) -> Result<Response, WebError> {
+async fn done(State(app): State<AppState>, token: ParticipationToken) -> Result<Response, WebError> {
     let (p, study) = participation(&app, &token).await?;
     let r = &study.design.recruitment;
     let params: HashMap<String, String> = serde_json::from_str(&p.platform_params).unwrap_or_default();
@@ -423,7 +470,7 @@ fn urlencode(text: &str) -> String {
         .collect()
 }
 
-async fn withdraw_page(State(app): State<AppState>, Path(token): Path<String>) -> Result<Response, WebError> {
+async fn withdraw_page(State(app): State<AppState>, token: ParticipationToken) -> Result<Response, WebError> {
     let (p, study) = participation(&app, &token).await?;
     if !p.state.is_open() {
         return Ok(Redirect::to(&format!("/p/{token}/done")).into_response());
@@ -438,9 +485,9 @@ async fn withdraw_page(State(app): State<AppState>, Path(token): Path<String>) -
     app.render("message.html", &merge(page(&study, "Withdraw"), context))
 }
 
-async fn withdraw(State(app): State<AppState>, Path(token): Path<String>) -> Result<Response, WebError> {
+async fn withdraw(State(app): State<AppState>, token: ParticipationToken) -> Result<Response, WebError> {
     participation(&app, &token).await?;
-    app.db.withdraw(&token).await?;
+    app.db.withdraw(token.as_str()).await?;
     Ok(Redirect::to(&format!("/p/{token}/done")).into_response())
 }
 
@@ -471,8 +518,8 @@ mod tests {
 
     #[test]
     fn platform_links_need_the_worker_id() {
-        let given: HashMap<String, String> = [("PROLIFIC_PID".to_string(), "abc".to_string()), ("other".to_string(), "x".to_string())].into();
-        assert_eq!(entry_params(Platform::Prolific, &given).unwrap(), vec![("PROLIFIC_PID".to_string(), "abc".to_string())]);
+        let given: HashMap<String, String> = [("PROLIFIC_PID".to_string(), " 5F1A2B3C4D5E6F708192A3B4\u{200b}".to_string()), ("other".to_string(), "x".to_string())].into();
+        assert_eq!(entry_params(Platform::Prolific, &given).unwrap(), vec![("PROLIFIC_PID".to_string(), "5f1a2b3c4d5e6f708192a3b4".to_string())]);
         assert!(entry_params(Platform::Mturk, &given).is_err());
         assert!(entry_params(Platform::Local, &given).unwrap().is_empty());
         assert_eq!(urlencode("a b&c"), "a%20b%26c");

@@ -101,8 +101,10 @@ fn exp3_report_has_tables_6_to_11() {
     })));
     // Two groups: Student and Welch tests with df, p and d per condition.
     let t = &rating["group_tests"][0];
-    assert!(t["student"]["Ok"]["df"].is_number() && t["welch"]["Ok"]["cohen_d"].is_number(), "{t}");
+    assert!(t["student"]["df"].is_number() && t["welch"]["cohen_d"].is_number(), "{t}");
     assert_eq!(rating["anova"].as_array().unwrap().len(), 4);
+    let terms: Vec<&str> = rating["anova"][0]["type_ii"]["rows"].as_array().unwrap().iter().map(|r| r["term"].as_str().unwrap()).collect();
+    assert_eq!(terms, ["emotion", "intensity", "emotion:intensity", "residual"], "terms named after the factors");
 }
 
 #[test]
@@ -317,4 +319,50 @@ mod parquet {
         assert!(stderr(&out).contains("r.parquet: not usable as Parquet"), "{}", stderr(&out));
         assert!(!d.join("report").exists());
     }
+}
+
+/// Every field path of a JSON value (`a.b[].c`), with the kinds of value seen there.
+fn field_paths(v: &Value, at: &str, out: &mut std::collections::BTreeMap<String, std::collections::BTreeSet<&'static str>>) {
+    let kind = match v {
+        Value::Null => "null",
+        Value::Bool(_) => "bool",
+        Value::Number(_) => "number",
+        Value::String(_) => "string",
+        Value::Array(_) => "array",
+        Value::Object(_) => "object",
+    };
+    if !at.is_empty() {
+        out.entry(at.to_string()).or_default().insert(kind);
+    }
+    match v {
+        Value::Array(items) => items.iter().for_each(|item| field_paths(item, &format!("{at}[]"), out)),
+        Value::Object(fields) => {
+            for (k, item) in fields {
+                // Keys that are data (stimulus ids, labels) rather than field names.
+                let key = if at.ends_with(".published") { "*" } else { k.as_str() };
+                let path = if at.is_empty() { key.to_string() } else { format!("{at}.{key}") };
+                field_paths(item, &path, out);
+            }
+        }
+        _ => {}
+    }
+}
+
+#[test]
+fn report_json_fields_are_documented_and_their_shape_is_kept() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut paths = std::collections::BTreeMap::new();
+    for (design, extra) in [("exp1", &[][..]), ("exp3", &["--participants", "6", "--missing", "0.02"][..])] {
+        let sub = dir.path().join(design);
+        std::fs::create_dir_all(&sub).unwrap();
+        let report = simulate_and_analyze(&sub, design, extra);
+        field_paths(&report, "", &mut paths);
+    }
+    let keys: Vec<&String> = paths.keys().collect();
+    assert!(keys.iter().all(|k| !k.split(['.', '[']).any(|part| part == "Ok" || part == "Err")), "serde Result wrappers in report.json");
+    let docs = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/report-json.md")).unwrap();
+    let undocumented: Vec<&&String> = keys.iter().filter(|k| !docs.contains(&format!("| `{k}` |"))).collect();
+    assert!(undocumented.is_empty(), "fields of report.json missing from docs/report-json.md: {undocumented:#?}");
+    let shape: Vec<String> = paths.iter().map(|(k, kinds)| format!("{k}: {}", kinds.iter().copied().collect::<Vec<_>>().join(" | "))).collect();
+    insta::assert_json_snapshot!("report_json_shape", shape);
 }

@@ -6,6 +6,7 @@ mod balance;
 mod browser;
 mod cli;
 mod e2e;
+mod edge;
 mod golden;
 mod render;
 mod server;

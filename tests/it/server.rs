@@ -108,9 +108,15 @@ pub struct Server {
 
 impl Server {
     pub fn start(db: PathBuf) -> Server {
+        Server::start_with(db, &[])
+    }
+
+    /// `facslab serve` with more options.
+    pub fn start_with(db: PathBuf, options: &[&str]) -> Server {
         let mut child = Command::new(env!("CARGO_BIN_EXE_facslab"))
             .args(["serve", "--port", "0", "--db"])
             .arg(&db)
+            .args(options)
             .stdout(Stdio::piped())
             .stderr(Stdio::inherit())
             .spawn()

@@ -5,6 +5,9 @@ use std::collections::{BTreeMap, HashSet};
 use crate::cli::facslab_ok;
 use crate::server::*;
 
+/// A Prolific participant id (24 hexadecimal digits).
+const PID: &str = "5f1a2b3c4d5e6f708192a3b4";
+
 /// Answers every remaining trial (attention checks as asked); returns the saved positions.
 async fn answer_all(http: &reqwest::Client, server: &Server, token: &str) -> Vec<i64> {
     let mut saved = Vec::new();
@@ -22,14 +25,15 @@ async fn study_participant_completes_and_admin_exports_the_long_csv() {
     let (lab, server, http) = emotion_lab("emo", "[recruitment]\nplatform = \"prolific\"\ncompletion_code = \"C0DE42\"\n");
 
     // A GET of the link creates nothing (link previews), and the link needs the worker id.
-    let landing = http.get(server.url("/s/emo?PROLIFIC_PID=w1&STUDY_ID=s&SESSION_ID=x")).send().await.unwrap();
+    let landing = http.get(server.url(&format!("/s/emo?PROLIFIC_PID={PID}&STUDY_ID=s&SESSION_ID=x"))).send().await.unwrap();
     assert_eq!(landing.status(), 200);
-    assert!(landing.text().await.unwrap().contains("name=\"PROLIFIC_PID\" value=\"w1\""));
+    assert!(landing.text().await.unwrap().contains(&format!("name=\"PROLIFIC_PID\" value=\"{PID}\"")));
     assert_eq!(http.get(server.url("/s/emo")).send().await.unwrap().status(), 400);
 
-    let token = start(&http, &server, "emo", &[("PROLIFIC_PID", "w1"), ("STUDY_ID", "s"), ("SESSION_ID", "x")]).await;
-    // One participation per worker: starting again gives the same one.
-    assert_eq!(start(&http, &server, "emo", &[("PROLIFIC_PID", "w1")]).await, token);
+    let token = start(&http, &server, "emo", &[("PROLIFIC_PID", PID), ("STUDY_ID", "s"), ("SESSION_ID", "x")]).await;
+    // One participation per worker: starting again from the same browser (its cookie) gives the same one.
+    let again = http.post(server.url("/s/emo/start")).header("cookie", format!("facslab_emo={token}")).form(&[("PROLIFIC_PID", PID)]).send().await.unwrap();
+    assert_eq!(location(&again), format!("/p/{token}"));
     // The completion page is not reachable before the end.
     let early = http.get(server.url(&format!("/p/{token}/done"))).send().await.unwrap();
     assert_eq!(early.status(), 303);
@@ -228,7 +232,7 @@ async fn study_bad_input_gets_a_clear_4xx_and_stores_nothing() {
     assert_eq!(wrong.status(), 401);
 
     // A token from the CLI opens the export API.
-    let out = facslab_ok(lab.path(), &["admin", "token", "alice", "--db", "lab.db"]);
+    let out = facslab_ok(lab.path(), &["admin", "token", "alice", "--study", "emo", "--db", "lab.db"]);
     let api_token = String::from_utf8(out.stdout).unwrap().trim().to_string();
     let csv = http.get(server.url("/api/v1/studies/emo/responses.csv")).bearer_auth(&api_token).send().await.unwrap();
     assert_eq!(csv.status(), 200);
@@ -239,7 +243,7 @@ async fn study_bad_input_gets_a_clear_4xx_and_stores_nothing() {
 async fn study_attention_policy_screens_out_after_two_failures() {
     let checks = "[attention]\nmax_failures = 2\nchecks = [{ instruction = \"Choose Surprise.\", measure = \"emotion\", value = \"surprise\" }, { instruction = \"Choose None.\", measure = \"emotion\", value = \"none\" }]\n[recruitment]\nplatform = \"prolific\"\ncompletion_code = \"OK\"\nscreened_out_code = \"NOPE\"\n";
     let (_lab, server, http) = emotion_lab("att", checks);
-    let token = start(&http, &server, "att", &[("PROLIFIC_PID", "w9")]).await;
+    let token = start(&http, &server, "att", &[("PROLIFIC_PID", "0123456789abcdef01234567")]).await;
     consent_and_demographics(&http, &server, &token).await;
     let mut last = serde_json::Value::Null;
     while let Some(position) = current_position(&http, &server, &token).await {
