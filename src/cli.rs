@@ -437,9 +437,8 @@ fn write_png(image: &RgbImage, path: &Path) -> anyhow::Result<()> {
     std::fs::rename(&partial, path).with_context(|| format!("moving the image into place at {}", path.display()))
 }
 
-/// Longest FACS expression accepted on the command line (the longest real one, every AU of
-/// the catalog with a side and an intensity, is well under this).
-const MAX_EXPRESSION_LEN: usize = 512;
+/// Longest FACS expression accepted on the command line.
+const MAX_EXPRESSION_LEN: usize = crate::facs::MAX_NOTATION_LEN;
 
 /// Refuses an over-long expression before parsing it, quoting only its start.
 fn check_expression_length(expression: &str) -> anyhow::Result<()> {

@@ -18,4 +18,4 @@ pub use appearance::{Appearance, AppearanceError, AppearanceSpec, Levels};
 pub use catalog::{ActionUnit, AuCode, AuKind, Catalog, CatalogError, Region};
 pub use emotions::{AppraisalCheck, AppraisalTable, Emotion, EmotionError, EmotionTable};
 pub use intensity::{Intensity, IntensityLevel};
-pub use notation::{Activation, Expression, Laterality, NotationError, NotationErrorKind};
+pub use notation::{Activation, Expression, Laterality, MAX_NOTATION_LEN, NotationError, NotationErrorKind};

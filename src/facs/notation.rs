@@ -148,6 +148,10 @@ pub enum NotationErrorKind {
     Duplicate(u16),
 }
 
+/// Longest FACS expression (bytes) that any input path accepts: the CLI, set specs, timelines
+/// and the studio. Every catalog AU with a side and an intensity is well under this.
+pub const MAX_NOTATION_LEN: usize = 512;
+
 /// A notation error with the token and where it starts.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("in FACS expression \"{input}\": token \"{token}\" at column {column}: {kind}")]

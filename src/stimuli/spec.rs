@@ -142,7 +142,7 @@ struct Item {
 /// Longest spec text read.
 pub const MAX_SPEC_BYTES: usize = 1 << 20;
 /// Longest expression in a spec.
-pub const MAX_EXPRESSION_LEN: usize = 512;
+pub const MAX_EXPRESSION_LEN: usize = crate::facs::MAX_NOTATION_LEN;
 /// Most stimuli in one set.
 pub const MAX_ENTRIES: usize = 20_000;
 /// Most frames one set renders (videos count every frame, stills one).

@@ -130,7 +130,7 @@ async fn catalog() -> Json<serde_json::Value> {
     Json(serde_json::json!({
         "aus": aus, "people": people, "presets": presets,
         "defaults": { "identity": request::DEFAULT_IDENTITY, "size": format!("{width}x{height}") },
-        "limits": { "expression_chars": request::MAX_EXPRESSION_CHARS, "side": request::MAX_SIDE, "video_frames": request::MAX_VIDEO_FRAMES },
+        "limits": { "expression_bytes": crate::facs::MAX_NOTATION_LEN, "side": request::MAX_SIDE, "video_frames": request::MAX_VIDEO_FRAMES },
     }))
 }
 

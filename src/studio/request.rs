@@ -14,12 +14,10 @@ use serde::Deserialize;
 use crate::engine::identity::{Identity, IdentityTable};
 use crate::engine::timeline::{ClipTiming, Timeline};
 use crate::engine::{self, FrameSettings};
-use crate::facs::{Catalog, Expression};
+use crate::facs::{Catalog, Expression, MAX_NOTATION_LEN};
 
 /// The person when a request names none (as `facslab render`).
 pub const DEFAULT_IDENTITY: &str = "wm1";
-/// Longest accepted FACS expression, in characters.
-pub const MAX_EXPRESSION_CHARS: usize = 2_000;
 /// Largest image side the API renders (the CLI allows 4096; a live API keeps renders short).
 pub const MAX_SIDE: u32 = 2_048;
 /// Most frames of a video render (one minute at 30 fps).
@@ -156,8 +154,8 @@ impl Rendered {
 
 /// Parses FACS notation, bounded, with the failing token kept for the caller.
 pub fn parse_expression(text: &str) -> Result<Expression, RequestError> {
-    if text.chars().count() > MAX_EXPRESSION_CHARS {
-        return Err(RequestError::field("expression", format!("longer than {MAX_EXPRESSION_CHARS} characters (\"{}\")", excerpt(text, 24))));
+    if text.len() > MAX_NOTATION_LEN {
+        return Err(RequestError::field("expression", format!("longer than {MAX_NOTATION_LEN} bytes (\"{}\")", excerpt(text, 24))));
     }
     Catalog::built_in().parse(text).map_err(|e| RequestError::Notation { token: excerpt(&e.token, 24), column: e.column, message: e.kind.to_string() })
 }
