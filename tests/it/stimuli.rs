@@ -194,7 +194,7 @@ fn stimuli_apex_frame_equals_the_still_and_ground_truth_matches_each_frame() {
             let ordered = order_like(&activations, &timeline);
             let expression = Expression::from_activations(ordered, catalog).unwrap();
             let identity = IdentityTable::built_in().get(&video.identity).unwrap();
-            let image = render_still(&expression, identity, FrameSettings { width: 64, height: 64, threads: Some(1) }).unwrap();
+            let image = render_still(&expression, identity, FrameSettings { width: 64, height: 64, threads: Some(1), ..Default::default() }).unwrap();
             let frame = std::fs::read(set.join(format!("frames/{id}/{f:06}.png"))).unwrap();
             assert_eq!(rgb(&frame).2, image.data, "{id} frame {f} was not rendered with the ground truth's intensities");
         }
