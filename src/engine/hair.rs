@@ -94,12 +94,12 @@ fn style_shape(style: HairStyle, texture: HairTexture) -> StyleShape {
     };
     match style {
         HairStyle::Cropped => base(0.05, 0.04, 1100.0, 2, 0.010, 0.05, 0.0),
-        HairStyle::Short if coiled => base(0.14, 0.1, 900.0, 5, 0.016, 0.9, 0.0),
+        HairStyle::Short if coiled => base(0.12, 0.1, 1200.0, 5, 0.02, 0.6, 0.0),
         HairStyle::Short => base(0.32, 0.16, 900.0, 7, 0.012, 0.06, 1.0),
-        HairStyle::Medium if coiled => base(0.42, 0.38, 800.0, 8, 0.02, 0.9, 0.3),
+        HairStyle::Medium if coiled => base(0.38, 0.34, 1000.0, 8, 0.024, 0.7, 0.3),
         HairStyle::Medium => base(1.0, 0.9, 700.0, 12, 0.016, 0.05, 2.5),
-        HairStyle::Shoulder => base(1.75, 1.6, 700.0, 16, 0.016, 0.05, 3.0),
-        HairStyle::Long => base(2.7, 2.5, 700.0, 20, 0.016, 0.05, 3.0),
+        HairStyle::Shoulder => base(1.75, 1.6, 800.0, 16, 0.016, 0.05, 3.0),
+        HairStyle::Long => base(2.7, 2.5, 800.0, 20, 0.016, 0.05, 3.0),
         HairStyle::Bun => StyleShape { gather: Some(Vec3::new(0.0, 8.15, -0.42)), hug: 0.85, ..base(1.2, 0.9, 700.0, 12, 0.014, 0.02, 0.0) },
         HairStyle::Ponytail => StyleShape { gather: Some(Vec3::new(0.0, 7.85, -0.5)), hug: 0.85, ..base(1.2, 0.9, 700.0, 12, 0.014, 0.02, 0.0) },
     }

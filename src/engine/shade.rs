@@ -496,7 +496,9 @@ impl<'a> FaceShader<'a> {
         let strand = (f.triangle / model.triangles_per_strand) as usize;
         let tone = model.strand_tone.get(strand).copied().unwrap_or(1.0);
         let grey = model.strand_grey.get(strand).copied().unwrap_or(0.0);
-        let pigment = self.identity.hair.lerp(Vec3::new(0.55, 0.55, 0.53), grey);
+        // Greying: white strands among pigmented ones, which themselves lose some colour.
+        let faded = self.identity.hair.lerp(Vec3::splat(self.identity.hair.dot(Vec3::splat(1.0 / 3.0))), 0.4 * self.identity.hair_grey);
+        let pigment = faded.lerp(Vec3::new(0.4, 0.4, 0.38), grey);
         let fibres = 0.72 + 0.28 * value_noise(Vec3::new(f.uv.x * 7.0, f.uv.y * 3.0, strand as f32 * 1.618));
         let rooted = 0.45 + 0.55 * smoothstep(0.0, 0.35, f.uv.y);
         let albedo = pigment * tone * fibres * rooted;

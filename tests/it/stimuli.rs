@@ -371,3 +371,26 @@ fn stimuli_av1_fallback_decodes_to_every_frame() {
         assert!(text.lines().any(|l| l == expected), "ffprobe lacks {expected}:\n{text}");
     }
 }
+
+/// A spec may add people from a file and set the look; a transparent backdrop gives RGBA
+/// stills, grayscale grey ones, and a video with a transparent backdrop is refused.
+#[test]
+fn stimuli_spec_people_from_a_file_and_the_look() {
+    let dir = tempfile::tempdir().unwrap();
+    facslab_ok(dir.path(), &["identities", "new", "--sex", "F", "--age", "30", "--ancestry", "east-asian", "--seed", "3", "-o", "people.toml"]);
+    let spec = "name = \"look\"\nseed = 4\nsize = [48, 48]\nidentities_file = \"people.toml\"\nidentities = [\"eaf3\"]\nbackdrop = \"transparent\"\nlight = \"soft\"\n[[group]]\nname = \"s\"\nexpressions = [\"12\"]\nstills = [1]\n";
+    let rows = build(dir.path(), spec, "clear");
+    assert_eq!(rows.len(), 1);
+    assert_eq!(rows[0].identity, "eaf3");
+    assert!(rows[0].engine_version.contains("backdrop-transparent") && rows[0].engine_version.contains("light-soft"));
+    let png = std::fs::read(dir.path().join("clear").join(&rows[0].file)).unwrap();
+    assert_eq!(png[25], 6, "an RGBA PNG");
+    let grey = spec.replace("backdrop = \"transparent\"", "grayscale = true");
+    let rows = build(dir.path(), &grey, "grey");
+    let (_, _, pixels) = rgb(&std::fs::read(dir.path().join("grey").join(&rows[0].file)).unwrap());
+    assert!(pixels.chunks(3).all(|p| p[0] == p[1] && p[1] == p[2]), "grey stills");
+    let video = spec.replace("stills = [1]", "video_peaks = [1]");
+    std::fs::write(dir.path().join("video.toml"), video).unwrap();
+    let output = facslab(dir.path(), &["stimuli", "check", "video.toml"]);
+    assert!(!output.status.success() && stderr(&output).contains("transparent"), "{}", stderr(&output));
+}
