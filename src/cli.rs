@@ -9,6 +9,7 @@ use clap::{Parser, Subcommand, ValueEnum};
 
 use crate::engine::identity::{Identity, IdentityTable};
 use crate::engine::image::RgbImage;
+use crate::engine::look::{Backdrop, Look};
 use crate::engine::sheet::ContactSheet;
 use crate::engine::{self, FrameSettings};
 use crate::engine::timeline::{ClipTiming, Ramp, Timeline};
@@ -43,9 +44,15 @@ enum Command {
         appearance: Option<String>,
     },
 
-    /// List the identities (people) facslab can render.
-    #[command(after_help = "Example:\n  facslab identities")]
-    Identities,
+    /// List the identities (people) facslab can render, or generate a new one.
+    #[command(after_help = "Examples:\n  facslab identities\n  facslab identities --identities people.toml\n  facslab identities new --sex F --age 34 --ancestry east-asian --seed 7 -o people.toml\n  facslab render 6+12 --identities people.toml --identity eaf7 -o smile.png")]
+    Identities {
+        #[command(subcommand)]
+        command: Option<IdentitiesCommand>,
+        /// Also list the people of this identity file (same format as stimuli/engine/identities.toml).
+        #[arg(long)]
+        identities: Option<PathBuf>,
+    },
 
     /// Render one expression as a PNG still, or as an MP4 video (HapFACS clip or a timeline file).
     #[command(after_help = "Examples:\n  facslab render 1+2+5B+26 --identity wf1 -o surprise.png\n  facslab render L12C+R14 --identity bm2 -o smirk.png --size 970x960\n  facslab render 12@0.42 -o faint-smile.png\n  facslab render 6+12 --video -o smile.mp4                      # 1 s onset, 1 s apex, 1 s offset, 30 fps\n  facslab render 6+12 --video --onset 0.5 --ramp cosine -o smile.mp4 --export-timeline smile.json\n  facslab render --timeline smile.json -o smile.mp4 --frames smile-frames --poster smile.png\n\nFACS notation: AUs joined by '+'; L/R prefix = one side; A-E suffix = intensity\n(15/30/55/85/100 %), or @x for a fraction in [0, 1]; no suffix = E; 0 = neutral.\nVideos are H.264 in MP4, BT.601-tagged; an odd width or height is padded to even (485x480 -> 486x480).")]
@@ -56,6 +63,18 @@ enum Command {
         /// Who shows it (see `facslab identities`) [default: wm1].
         #[arg(long)]
         identity: Option<String>,
+        /// Adds the people of this identity file (same TOML as stimuli/engine/identities.toml).
+        #[arg(long)]
+        identities: Option<PathBuf>,
+        /// Backdrop: grey, black, #RRGGBB or transparent (an RGBA PNG, stills only).
+        #[arg(long, default_value = "grey")]
+        backdrop: crate::engine::look::Backdrop,
+        /// Lighting preset: studio, soft or dramatic.
+        #[arg(long, default_value = "studio")]
+        light: crate::engine::look::LightPreset,
+        /// Black-and-white output.
+        #[arg(long)]
+        grayscale: bool,
         /// Output file: .png for a still, .mp4 for a video.
         #[arg(short, long)]
         output: PathBuf,
@@ -109,6 +128,18 @@ enum Command {
         /// Identity for the AU sheet.
         #[arg(long, default_value = "wm1")]
         identity: String,
+        /// Adds the people of this identity file (the emotions sheet shows them too).
+        #[arg(long)]
+        identities: Option<PathBuf>,
+        /// Backdrop: grey, black, #RRGGBB or transparent.
+        #[arg(long, default_value = "grey")]
+        backdrop: crate::engine::look::Backdrop,
+        /// Lighting preset: studio, soft or dramatic.
+        #[arg(long, default_value = "studio")]
+        light: crate::engine::look::LightPreset,
+        /// Black-and-white output.
+        #[arg(long)]
+        grayscale: bool,
         /// Output PNG file.
         #[arg(short, long)]
         output: PathBuf,
@@ -201,6 +232,80 @@ enum StimuliCommand {
     },
 }
 
+#[derive(Subcommand)]
+enum IdentitiesCommand {
+    /// Generate a new person from the CC0 shape targets and append it to an identity file.
+    #[command(after_help = "Example:\n  facslab identities new --sex M --age 52 --ancestry middle-eastern --seed 3 -o people.toml\n\nAncestries: african, east-asian, south-asian, hispanic, middle-eastern, european.\nThe same options give the same person; another --seed gives another person.")]
+    New {
+        /// F or M.
+        #[arg(long, value_parser = parse_sex)]
+        sex: crate::engine::people::Sex,
+        /// Age in years (18..=90).
+        #[arg(long, value_parser = clap::value_parser!(u32).range(18..=90))]
+        age: u32,
+        /// african, east-asian, south-asian, hispanic, middle-eastern or european.
+        #[arg(long, value_parser = parse_origin)]
+        ancestry: crate::engine::people::Origin,
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// The new person's id [default: ancestry code, f/m and the seed, e.g. eaf7].
+        #[arg(long)]
+        id: Option<String>,
+        /// The identity file to create or append to.
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+}
+
+fn parse_sex(text: &str) -> Result<crate::engine::people::Sex, String> {
+    match text {
+        "F" | "f" => Ok(crate::engine::people::Sex::Female),
+        "M" | "m" => Ok(crate::engine::people::Sex::Male),
+        _ => Err(format!("\"{text}\" is not F or M")),
+    }
+}
+
+fn parse_origin(text: &str) -> Result<crate::engine::people::Origin, String> {
+    crate::engine::people::Origin::parse(text).ok_or_else(|| {
+        let names: Vec<&str> = crate::engine::people::Origin::ALL.iter().map(|o| o.name()).collect();
+        format!("\"{text}\" is not one of {}", names.join(", "))
+    })
+}
+
+/// Adds the people of `path` (if any) to the identities every command renders.
+pub fn install_identities(path: Option<&Path>) -> anyhow::Result<()> {
+    let Some(path) = path else { return Ok(()) };
+    let size = std::fs::metadata(path).with_context(|| format!("reading {}", path.display()))?.len();
+    if size > crate::engine::identity::MAX_FILE_BYTES as u64 {
+        bail!("{} is {size} bytes; an identity file may have at most {} bytes", path.display(), crate::engine::identity::MAX_FILE_BYTES);
+    }
+    let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    IdentityTable::install(&text).with_context(|| format!("in identity file {}", path.display()))?;
+    Ok(())
+}
+
+/// Generates one person and appends it to `output` (created with a header if missing).
+fn new_identity(request: &crate::engine::people::PersonRequest, output: &Path) -> anyhow::Result<()> {
+    let block = crate::engine::people::generate(request);
+    let existing = match std::fs::read_to_string(output) {
+        Ok(text) => text,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            "# People for facslab (`--identities FILE`); same format as stimuli/engine/identities.toml.\n".to_string()
+        }
+        Err(e) => return Err(e).with_context(|| format!("reading {}", output.display())),
+    };
+    let id = request.id();
+    if IdentityTable::active().get(&id).is_ok() {
+        bail!("\"{id}\" is a built-in identity; choose another --id or --seed");
+    }
+    let text = format!("{}\n\n{block}", existing.trim_end());
+    crate::engine::identity::IdentityTable::from_toml(&text, crate::engine::asset::FaceModel::embedded())
+        .with_context(|| format!("{} with the new person would not be a valid identity file", output.display()))?;
+    stimuli::build::write_atomic(output, text.as_bytes())?;
+    println!("{id}");
+    Ok(())
+}
+
 #[derive(Clone, Copy, PartialEq, ValueEnum)]
 enum CodecArg {
     H264,
@@ -261,15 +366,24 @@ fn dispatch(command: Command) -> anyhow::Result<()> {
             }
             Ok(())
         }
-        Command::Identities => {
-            for identity in IdentityTable::built_in().iter() {
-                println!("{:<6} {}", identity.id, identity.description);
+        Command::Identities { command: Some(IdentitiesCommand::New { sex, age, ancestry, seed, id, output }), .. } => {
+            let request = crate::engine::people::PersonRequest { sex, age, origin: ancestry, seed, id };
+            new_identity(&request, &output)
+        }
+        Command::Identities { command: None, identities } => {
+            install_identities(identities.as_deref())?;
+            for identity in IdentityTable::active().iter() {
+                println!("{:<8} {}", identity.id, identity.description);
             }
             Ok(())
         }
         Command::Render {
             expression,
             identity,
+            identities,
+            backdrop,
+            light,
+            grayscale,
             output,
             size,
             threads,
@@ -285,6 +399,7 @@ fn dispatch(command: Command) -> anyhow::Result<()> {
             poster,
             codec,
         } => {
+            install_identities(identities.as_deref())?;
             let is_video = video || timeline.is_some();
             check_expression_length(expression.as_deref().unwrap_or_default())?;
             if !is_video {
@@ -292,15 +407,16 @@ fn dispatch(command: Command) -> anyhow::Result<()> {
                     bail!("--export-timeline, --frames and --poster go with --video or --timeline");
                 }
                 let expression = Catalog::built_in().parse(expression.as_deref().unwrap_or_default())?;
-                let identity = IdentityTable::built_in().get(identity.as_deref().unwrap_or("wm1"))?;
+                let identity = IdentityTable::active().get(identity.as_deref().unwrap_or("wm1"))?;
                 if output.extension().is_some_and(|e| e.eq_ignore_ascii_case("mp4")) {
                     bail!("output {} is a video: add --video (or --timeline FILE)", output.display());
                 }
                 check_png_path(&output)?;
                 let (width, height) = size.unwrap_or(engine::DEFAULT_SIZE);
-                let settings = FrameSettings { width, height, threads };
-                let image = engine::render_still(&expression, identity, settings)?;
-                return write_png(&image, &output);
+                let look = Look { backdrop, light, grayscale };
+                let settings = FrameSettings { width, height, threads, look };
+                let frame = engine::render_frame(&expression, identity, settings)?;
+                return write_png_bytes(&frame.encode_png(), &output);
             }
             let timeline = match timeline {
                 Some(path) => {
@@ -328,7 +444,12 @@ fn dispatch(command: Command) -> anyhow::Result<()> {
                 }
             };
             let av1 = codec == CodecArg::Av1;
-            render_timeline_video(&timeline, &output, threads, export_timeline.as_deref(), frames.as_deref(), poster.as_deref(), av1)
+            if backdrop == Backdrop::Transparent {
+                bail!("videos cannot have a transparent backdrop (use it for stills)");
+            }
+            let look = Look { backdrop, light, grayscale };
+            let video = VideoOutputs { export: export_timeline.as_deref(), frames: frames.as_deref(), poster: poster.as_deref(), av1 };
+            render_timeline_video(&timeline, &output, threads, look, &video)
         }
         Command::Stimuli(StimuliCommand::Check { spec }) => {
             let set = SetSpec::load(&spec)?;
@@ -373,11 +494,16 @@ fn dispatch(command: Command) -> anyhow::Result<()> {
             );
             Ok(())
         }
-        Command::Sheet { set, identity, output, tile, columns } => {
+        Command::Sheet { set, identity, identities, backdrop, light, grayscale, output, tile, columns } => {
+            install_identities(identities.as_deref())?;
             check_png_path(&output)?;
-            let settings = FrameSettings { width: tile.0, height: tile.1, threads: None };
+            if backdrop == Backdrop::Transparent {
+                bail!("a contact sheet cannot have a transparent backdrop (render stills with it)");
+            }
+            let look = Look { backdrop, light, grayscale };
+            let settings = FrameSettings { width: tile.0, height: tile.1, threads: None, look };
             let sheet = match set {
-                SheetSet::Aus => au_sheet(IdentityTable::built_in().get(&identity)?, settings, columns)?,
+                SheetSet::Aus => au_sheet(IdentityTable::active().get(&identity)?, settings, columns)?,
                 SheetSet::Emotions => emotion_sheet(settings, columns)?,
             };
             write_png(&sheet.compose(), &output)
@@ -411,7 +537,7 @@ fn au_sheet(identity: &Identity, settings: FrameSettings, columns: u32) -> anyho
 fn emotion_sheet(settings: FrameSettings, columns: u32) -> anyhow::Result<ContactSheet> {
     let mut sheet = ContactSheet::new(columns);
     for emotion in EmotionTable::built_in().iter() {
-        for identity in IdentityTable::built_in().iter() {
+        for identity in IdentityTable::active().iter() {
             let image = engine::render_still(&emotion.expression, identity, settings)?;
             sheet.push(image, format!("{} {} ({})", identity.id, emotion.label, display(&emotion.expression)));
         }
@@ -432,8 +558,12 @@ fn check_png_path(path: &Path) -> anyhow::Result<()> {
 
 /// Writes the PNG next to its destination first and renames it, so a failure leaves no file.
 fn write_png(image: &RgbImage, path: &Path) -> anyhow::Result<()> {
+    write_png_bytes(&image.encode_png(), path)
+}
+
+fn write_png_bytes(bytes: &[u8], path: &Path) -> anyhow::Result<()> {
     let partial = path.with_extension("png.partial");
-    std::fs::write(&partial, image.encode_png()).with_context(|| format!("writing {}", partial.display()))?;
+    std::fs::write(&partial, bytes).with_context(|| format!("writing {}", partial.display()))?;
     std::fs::rename(&partial, path).with_context(|| format!("moving the image into place at {}", path.display()))
 }
 
@@ -449,16 +579,17 @@ fn check_expression_length(expression: &str) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Renders a timeline to an MP4 (frames in parallel), with the optional extra outputs.
-fn render_timeline_video(
-    timeline: &Timeline,
-    output: &Path,
-    threads: Option<usize>,
-    export: Option<&Path>,
-    frames: Option<&Path>,
-    poster: Option<&Path>,
+/// The optional extra outputs of a video.
+struct VideoOutputs<'a> {
+    export: Option<&'a Path>,
+    frames: Option<&'a Path>,
+    poster: Option<&'a Path>,
     av1: bool,
-) -> anyhow::Result<()> {
+}
+
+/// Renders a timeline to an MP4 (frames in parallel), with the optional extra outputs.
+fn render_timeline_video(timeline: &Timeline, output: &Path, threads: Option<usize>, look: Look, outputs: &VideoOutputs) -> anyhow::Result<()> {
+    let VideoOutputs { export, frames, poster, av1 } = *outputs;
     if av1 && !cfg!(feature = "av1") {
         bail!("this facslab was built without AV1 support (cargo build --features av1)");
     }
@@ -466,11 +597,11 @@ fn render_timeline_video(
         bail!("output {} must end in .mp4 for a video", output.display());
     }
     timeline.validate(Catalog::built_in())?;
-    IdentityTable::built_in().get(&timeline.identity)?;
+    IdentityTable::active().get(&timeline.identity)?;
     if let Some(path) = export {
         stimuli::build::write_atomic(path, timeline.to_json().as_bytes())?;
     }
-    let settings = FrameSettings { width: timeline.size[0], height: timeline.size[1], threads: Some(1) };
+    let settings = FrameSettings { width: timeline.size[0], height: timeline.size[1], threads: Some(1), look };
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads.unwrap_or(0)).build()?;
     let mut first = None;
     let mut all_frames = Vec::new();

@@ -186,8 +186,17 @@ function redo() {
 
 // ---- URL --------------------------------------------------------------------------------
 
+// Backdrop, light and black-and-white, as the render API takes them.
+function look() {
+  return { backdrop: $("backdrop").value, light: $("light").value, grayscale: $("grayscale").checked };
+}
+
 function saveUrl() {
   const params = new URLSearchParams({ e: state.notation, p: state.identity, s: state.size });
+  const { backdrop, light, grayscale } = look();
+  if (backdrop !== "grey") params.set("b", backdrop);
+  if (light !== "studio") params.set("l", light);
+  if (grayscale) params.set("g", "1");
   const compare = $("compare-identity").value;
   if (compare) params.set("c", compare);
   if ($("show-neutral").checked) params.set("n", "1");
@@ -201,6 +210,10 @@ function loadUrl() {
   if ([...$("size").options].some((o) => o.value === params.get("s"))) state.size = params.get("s");
   if (people.includes(params.get("c"))) $("compare-identity").value = params.get("c");
   $("show-neutral").checked = params.get("n") === "1";
+  for (const [id, key] of [["backdrop", "b"], ["light", "l"]]) {
+    if ([...$(id).options].some((o) => o.value === params.get(key))) $(id).value = params.get(key);
+  }
+  $("grayscale").checked = params.get("g") === "1";
   $("identity").value = state.identity;
   $("size").value = state.size;
   return params.get("e") || "0";
@@ -232,7 +245,7 @@ async function preview() {
   if (state.inflight) state.inflight.abort();
   const controller = new AbortController();
   state.inflight = controller;
-  const body = { expression: state.notation, identity: state.identity, size: state.size };
+  const body = { expression: state.notation, identity: state.identity, size: state.size, ...look() };
   const started = performance.now();
   $("status").textContent = "rendering…";
   try {
@@ -307,7 +320,7 @@ async function scrub() {
   const fps = JSON.parse(state.timeline).fps;
   $("scrub-label").textContent = `frame ${frame} (${(frame / fps).toFixed(2)} s)`;
   try {
-    const blob = await renderPng({ timeline: JSON.parse(state.timeline), frame });
+    const blob = await renderPng({ timeline: JSON.parse(state.timeline), frame, ...look() });
     if (Number($("scrub").value) !== frame) return;
     $("image").src = URL.createObjectURL(blob);
     $("caption").textContent = `${state.identity}: clip frame ${frame}`;
@@ -321,7 +334,7 @@ async function makeMp4() {
   const response = await fetch("api/v1/render", {
     method: "POST",
     headers: { "Content-Type": "application/json" },
-    body: JSON.stringify({ timeline: JSON.parse(state.timeline) }),
+    body: JSON.stringify({ timeline: JSON.parse(state.timeline), ...look() }),
   });
   if (!response.ok) {
     $("status").textContent = (await response.json()).error;
@@ -360,6 +373,7 @@ function wire() {
   $("undo").addEventListener("click", undo);
   $("redo").addEventListener("click", redo);
   $("show-neutral").addEventListener("change", () => setNotation(state.notation, false, false));
+  for (const id of ["backdrop", "light", "grayscale"]) $(id).addEventListener("change", () => setNotation(state.notation, false, false));
   $("compare-identity").addEventListener("change", () => setNotation(state.notation, false, false));
   $("make-clip").addEventListener("click", makeClip);
   $("scrub").addEventListener("input", scrub);

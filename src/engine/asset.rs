@@ -150,6 +150,26 @@ impl FaceModel {
         FACE_DIR.get_file(format!("targets/{name}.target")).is_some()
     }
 
+    /// The vertex indices of the group `name` in `groups.txt` (e.g. `neck_cut_loop`, in order).
+    pub fn group(&self, name: &str) -> Result<Vec<u32>, AssetError> {
+        let text = read("groups.txt")?;
+        let (n, line) = text
+            .lines()
+            .enumerate()
+            .find(|(_, line)| line.split_once(':').is_some_and(|(key, _)| key.trim() == name))
+            .ok_or_else(|| AssetError::Missing(format!("groups.txt group {name}")))?;
+        let (_, list) = line.split_once(':').unwrap_or_default();
+        let indices: Vec<u32> = list.split_whitespace().map(str::parse).collect::<Result<_, _>>().map_err(|_| AssetError::Malformed {
+            file: "groups.txt".into(),
+            line: n + 1,
+            message: "expected vertex indices".into(),
+        })?;
+        if indices.iter().any(|&i| i as usize >= self.rest.len()) {
+            return Err(AssetError::Malformed { file: "groups.txt".into(), line: n + 1, message: "vertex index out of range".into() });
+        }
+        Ok(indices)
+    }
+
     /// Dense per-vertex weights of the region `name` (`lips`, `bone-jaw`, …), 0 where unlisted.
     pub fn region(&self, name: &str) -> Result<Vec<f32>, AssetError> {
         let rows = parse_rows(&format!("regions/{name}.txt"), |_, fields| fields.first().copied())?;

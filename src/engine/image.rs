@@ -86,6 +86,103 @@ impl RgbImage {
     }
 }
 
+impl RgbImage {
+    /// The same image in shades of grey: each pixel's luminance (Rec. 709 weights on linear
+    /// light), encoded back to sRGB in all three channels.
+    pub fn to_grayscale(&self) -> RgbImage {
+        let linear: [f32; 256] = std::array::from_fn(|v| srgb_to_linear(v as f32 / 255.0));
+        let encode = Srgb8::new();
+        let data = self
+            .data
+            .chunks_exact(3)
+            .flat_map(|p| {
+                let y = 0.2126 * linear[p[0] as usize] + 0.7152 * linear[p[1] as usize] + 0.0722 * linear[p[2] as usize];
+                [encode.encode(y); 3]
+            })
+            .collect();
+        RgbImage { width: self.width, height: self.height, data }
+    }
+
+    /// Adds an alpha channel (`alpha` has one byte per pixel), dividing the colour of partly
+    /// covered pixels by their coverage: the colours were blended with black there.
+    pub fn with_alpha(&self, alpha: &[u8]) -> RgbaImage {
+        assert_eq!(alpha.len() * 3, self.data.len(), "one alpha byte per pixel");
+        let linear: [f32; 256] = std::array::from_fn(|v| srgb_to_linear(v as f32 / 255.0));
+        let encode = Srgb8::new();
+        let data = self
+            .data
+            .chunks_exact(3)
+            .zip(alpha)
+            .flat_map(|(p, &a)| match a {
+                0 => [0, 0, 0, 0],
+                255 => [p[0], p[1], p[2], 255],
+                _ => {
+                    let k = 255.0 / a as f32;
+                    let c = |v: u8| encode.encode(linear[v as usize] * k);
+                    [c(p[0]), c(p[1]), c(p[2]), a]
+                }
+            })
+            .collect();
+        RgbaImage { width: self.width, height: self.height, data }
+    }
+}
+
+/// An RGBA image, 8 bits per channel, sRGB colour with straight (not premultiplied) alpha.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct RgbaImage {
+    pub width: u32,
+    pub height: u32,
+    /// `width * height * 4` bytes, `R G B A` per pixel, row-major from the top-left corner.
+    pub data: Vec<u8>,
+}
+
+impl RgbaImage {
+    /// Encodes as PNG with the same fixed settings as [`RgbImage::encode_png`].
+    pub fn encode_png(&self) -> Vec<u8> {
+        let mut out = Vec::with_capacity(self.data.len() / 2 + 1024);
+        let mut encoder = png::Encoder::new(&mut out, self.width, self.height);
+        encoder.set_color(png::ColorType::Rgba);
+        encoder.set_depth(png::BitDepth::Eight);
+        encoder.set_compression(png::Compression::Fast);
+        encoder.set_filter(png::Filter::Adaptive);
+        encoder.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+        let written = encoder.write_header().and_then(|mut w| w.write_image_data(&self.data).and_then(|()| w.finish()));
+        written.expect("encoding a well-formed RGBA image into memory cannot fail");
+        out
+    }
+}
+
+/// A rendered frame: colour, or colour with alpha (transparent backdrop).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Frame {
+    Rgb(RgbImage),
+    Rgba(RgbaImage),
+}
+
+impl Frame {
+    pub fn encode_png(&self) -> Vec<u8> {
+        match self {
+            Frame::Rgb(image) => image.encode_png(),
+            Frame::Rgba(image) => image.encode_png(),
+        }
+    }
+
+    /// The colour image (for RGBA, composited over black).
+    pub fn into_rgb(self) -> RgbImage {
+        match self {
+            Frame::Rgb(image) => image,
+            Frame::Rgba(image) => {
+                let data = image.data.chunks_exact(4).flat_map(|p| {
+                    let a = p[3] as f32 / 255.0;
+                    let linear = |v: u8| srgb_to_linear(v as f32 / 255.0) * a;
+                    [linear_to_srgb8(linear(p[0])), linear_to_srgb8(linear(p[1])), linear_to_srgb8(linear(p[2]))]
+                });
+                RgbImage { width: image.width, height: image.height, data: data.collect() }
+            }
+        }
+    }
+}
+
 /// The sRGB transfer function (IEC 61966-2-1), linear `[0, 1]` → encoded `[0, 1]`; clamps.
 pub fn linear_to_srgb(linear: f32) -> f32 {
     let c = f64::from(linear);
@@ -253,6 +350,37 @@ mod tests {
         let info = reader.next_frame(&mut buf).unwrap();
         assert_eq!((info.width, info.height), (7, 5));
         assert_eq!(&buf[..info.buffer_size()], &img.data[..]);
+    }
+
+    #[test]
+    fn grayscale_has_equal_channels_and_keeps_grey() {
+        let mut img = RgbImage::new(3, 1);
+        img.set_pixel(0, 0, [200, 40, 10]);
+        img.set_pixel(1, 0, [77, 77, 77]);
+        img.set_pixel(2, 0, [0, 255, 0]);
+        let grey = img.to_grayscale();
+        assert!(grey.data.chunks(3).all(|p| p[0] == p[1] && p[1] == p[2]));
+        assert_eq!(grey.pixel(1, 0), [77, 77, 77]);
+        assert!(grey.pixel(2, 0)[0] > grey.pixel(0, 0)[0], "green is brighter than red");
+    }
+
+    #[test]
+    fn alpha_unblends_edges_and_zeroes_the_backdrop() {
+        let mut img = RgbImage::new(3, 1);
+        img.set_pixel(0, 0, [5, 5, 5]);
+        img.set_pixel(1, 0, [linear_to_srgb8(0.25), 0, 0]);
+        img.set_pixel(2, 0, [10, 20, 30]);
+        let rgba = img.with_alpha(&[0, 128, 255]);
+        assert_eq!(&rgba.data[0..4], &[0, 0, 0, 0]);
+        assert_eq!(rgba.data[7], 128);
+        assert!((rgba.data[4] as i32 - linear_to_srgb8(0.5) as i32).abs() <= 2, "{}", rgba.data[4]);
+        assert_eq!(&rgba.data[8..12], &[10, 20, 30, 255]);
+        let png = rgba.encode_png();
+        let mut reader = png::Decoder::new(std::io::Cursor::new(png)).read_info().unwrap();
+        assert_eq!(reader.info().color_type, png::ColorType::Rgba);
+        let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+        reader.next_frame(&mut buf).unwrap();
+        assert_eq!(buf, rgba.data);
     }
 
     #[test]

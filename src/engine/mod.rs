@@ -10,9 +10,13 @@
 //! and engine version give byte-identical images on any number of threads.
 
 pub mod asset;
+pub mod body;
 pub mod camera;
+pub mod hair;
 pub mod identity;
 pub mod image;
+pub mod look;
+pub mod people;
 pub mod pose;
 pub mod raster;
 pub mod rig;
@@ -30,7 +34,8 @@ use crate::facs::Expression;
 use asset::{FaceModel, Part};
 use camera::Camera;
 use identity::Identity;
-use image::RgbImage;
+use image::{Frame, RgbImage};
+use look::{Backdrop, Look};
 use pose::{PreparedIdentity, Posed};
 use raster::{RenderOptions, SampleCount, Triangles};
 use rig::AuBasis;
@@ -60,19 +65,21 @@ pub struct FrameSettings {
     pub height: u32,
     /// `None` = all cores; the output is the same either way.
     pub threads: Option<usize>,
+    /// Backdrop, light and colour.
+    pub look: Look,
 }
 
 impl Default for FrameSettings {
     fn default() -> Self {
-        FrameSettings { width: DEFAULT_SIZE.0, height: DEFAULT_SIZE.1, threads: None }
+        FrameSettings { width: DEFAULT_SIZE.0, height: DEFAULT_SIZE.1, threads: None, look: Look::default() }
     }
 }
 
 /// The portrait camera: about a metre in front of the face, level with the eyes, framing the
-/// head and the top of the neck. `anchor` is the midpoint of the eyes at rest.
+/// head, the neck and the top of the shoulders. `anchor` is the midpoint of the eyes at rest.
 pub fn portrait_camera(anchor: Vec3, width: u32, height: u32) -> Camera {
-    let target = anchor + Vec3::new(0.0, -0.12, 0.0);
-    Camera { eye: target + Vec3::new(0.0, 0.25, 11.0), target, up: Vec3::Y, fov_y_degrees: 15.5, width, height }
+    let target = anchor + Vec3::new(0.0, -0.22, 0.0);
+    Camera { eye: target + Vec3::new(0.0, 0.25, 11.0), target, up: Vec3::Y, fov_y_degrees: 17.0, width, height }
 }
 
 /// Poses `identity` showing `expression`.
@@ -83,30 +90,95 @@ pub fn pose_expression(expression: &Expression, identity: &Identity) -> Result<P
     Ok(pose::pose(model, &prepared, &values)?)
 }
 
-/// Renders one still of `identity` showing `expression`.
+/// Renders one still of `identity` showing `expression` (greyscale if the look asks; a
+/// transparent backdrop gives the colours over black here, see [`render_frame`]).
 pub fn render_still(expression: &Expression, identity: &Identity, settings: FrameSettings) -> Result<RgbImage, EngineError> {
     let posed = pose_expression(expression, identity)?;
     render_posed(&posed, identity, settings)
 }
 
+/// Renders one still as [`render_still`] does, as RGBA when the backdrop is transparent
+/// (alpha = the fraction of a pixel's samples that hit the person).
+pub fn render_frame(expression: &Expression, identity: &Identity, settings: FrameSettings) -> Result<Frame, EngineError> {
+    let posed = pose_expression(expression, identity)?;
+    let image = render_posed(&posed, identity, settings)?;
+    if settings.look.backdrop != Backdrop::Transparent {
+        return Ok(Frame::Rgb(image));
+    }
+    let scene = Scene::new(&posed, identity);
+    let camera = portrait_camera(posed.anchor, settings.width, settings.height);
+    let visibility = raster::visibility(&scene.items(&posed), &camera, &still_options(settings.threads));
+    let n = visibility.samples_per_pixel;
+    let alpha: Vec<u8> = visibility
+        .samples
+        .chunks_exact(n)
+        .map(|pixel| {
+            let hits = pixel.iter().filter(|s| s.is_some()).count();
+            ((hits * 255 + n / 2) / n) as u8
+        })
+        .collect();
+    Ok(Frame::Rgba(image.with_alpha(&alpha)))
+}
+
+fn still_options(threads: Option<usize>) -> RenderOptions {
+    RenderOptions { samples_per_pixel: SampleCount::X4, threads, backface_culling: true, shade_per_surface: true }
+}
+
+/// Scene part ids of the generated geometry (after the face model's [`Part`]s).
+pub const BODY_PART: u16 = 100;
+pub const HAIR_PART: u16 = 101;
+
+/// The geometry drawn in a frame: the posed head and the generated body.
+struct Scene {
+    model: &'static FaceModel,
+    body: body::Body,
+    hair: hair::Hair,
+}
+
+impl Scene {
+    fn new(posed: &Posed, identity: &Identity) -> Scene {
+        let model = FaceModel::embedded();
+        let hair = hair::HairModel::cached(model, identity, &posed.neutral).posed(model, posed);
+        Scene { model, body: body::Body::new(model, posed, identity), hair }
+    }
+
+    fn items<'a>(&'a self, posed: &'a Posed) -> Vec<Triangles<'a>> {
+        let mut items: Vec<Triangles<'a>> = Part::ALL
+            .iter()
+            .map(|&part| Triangles {
+                positions: &posed.positions,
+                normals: &posed.normals,
+                uvs: &[],
+                indices: &self.model.part(part).triangles,
+                part: part.id(),
+                two_sided: part.is_thin(),
+            })
+            .collect();
+        let body = &self.body;
+        items.push(Triangles { positions: &body.positions, normals: &body.normals, uvs: &[], indices: &body.triangles, part: BODY_PART, two_sided: false });
+        let hair = &self.hair;
+        // Hair cards carry the strand direction where other items carry normals.
+        items.push(Triangles {
+            positions: &hair.positions,
+            normals: &hair.tangents,
+            uvs: &hair.model.uvs,
+            indices: &hair.model.triangles,
+            part: HAIR_PART,
+            two_sided: true,
+        });
+        items
+    }
+}
+
 /// Rasterises and shades an already posed head.
 pub fn render_posed(posed: &Posed, identity: &Identity, settings: FrameSettings) -> Result<RgbImage, EngineError> {
-    let FrameSettings { width, height, threads } = settings;
+    let FrameSettings { width, height, threads, look } = settings;
     if !(16..=4096).contains(&width) || !(16..=4096).contains(&height) {
         return Err(EngineError::Size(width, height));
     }
     let model = FaceModel::embedded();
-    let scene: Vec<Triangles> = Part::ALL
-        .iter()
-        .map(|&part| Triangles {
-            positions: &posed.positions,
-            normals: &posed.normals,
-            uvs: &[],
-            indices: &model.part(part).triangles,
-            part: part.id(),
-            two_sided: part.is_thin(),
-        })
-        .collect();
+    let holder = Scene::new(posed, identity);
+    let scene = holder.items(posed);
     let camera = portrait_camera(posed.anchor, width, height);
     // Lashes are too thin to cast visible shadows; at shadow-map resolution they would smear.
     let casters: Vec<Triangles> = scene
@@ -114,10 +186,11 @@ pub fn render_posed(posed: &Posed, identity: &Identity, settings: FrameSettings)
         .filter(|t| !matches!(Part::from_id(t.part), Some(Part::LashesUpper | Part::LashesLower)))
         .copied()
         .collect();
-    let shadow = shade::ShadowMap::new(&casters, posed.anchor + Vec3::new(0.0, -0.3, 0.0), SHADOW_MAP_SIZE, threads);
-    let shader = shade::FaceShader::new(model, posed, identity, height).with_shadows(&shadow);
-    let options = RenderOptions { samples_per_pixel: SampleCount::X4, threads, backface_culling: true, shade_per_surface: true };
-    Ok(raster::render(&scene, &camera, &shader, &options))
+    let key = look.light.lighting().lights[0].direction;
+    let shadow = shade::ShadowMap::new(&casters, key, posed.anchor + Vec3::new(0.0, -0.3, 0.0), SHADOW_MAP_SIZE, threads);
+    let shader = shade::FaceShader::new(model, posed, identity, &look, height).with_body(&holder.body).with_hair(&holder.hair).with_shadows(&shadow);
+    let image = raster::render(&scene, &camera, &shader, &still_options(threads));
+    Ok(if look.grayscale { image.to_grayscale() } else { image })
 }
 
 /// The value cached under `key`, or `make()` stored there: the per-person caches of the engine
@@ -139,7 +212,7 @@ mod tests {
     use identity::IdentityTable;
 
     fn small() -> FrameSettings {
-        FrameSettings { width: 32, height: 32, threads: Some(1) }
+        FrameSettings { width: 32, height: 32, threads: Some(1), ..Default::default() }
     }
 
     /// Every catalog AU at every letter intensity, on every side it allows, renders, and
@@ -148,7 +221,7 @@ mod tests {
     fn every_au_renders_at_every_intensity_and_side() {
         let catalog = Catalog::built_in();
         let identity = IdentityTable::built_in().get("bf1").unwrap();
-        let settings = FrameSettings { width: 64, height: 64, threads: Some(1) };
+        let settings = FrameSettings { width: 64, height: 64, threads: Some(1), ..Default::default() };
         let neutral = render_still(&Expression::neutral(), identity, settings).unwrap();
         for unit in catalog.iter() {
             let sides: &[&str] = if unit.unilateral { &["", "L", "R"] } else { &[""] };
@@ -183,10 +256,45 @@ mod tests {
         }
     }
 
+    /// The same bytes on one and two threads, hair, body and every look included.
+    #[test]
+    fn one_and_two_threads_give_the_same_bytes() {
+        let catalog = Catalog::built_in();
+        let expression = catalog.parse("1+2+12+25").unwrap();
+        for (id, look) in [("wf1", Look::default()), ("bf2", Look { light: look::LightPreset::Dramatic, ..Look::default() }), ("hlf2", Look::default())] {
+            let identity = IdentityTable::built_in().get(id).unwrap();
+            let at = |threads| render_still(&expression, identity, FrameSettings { width: 160, height: 160, threads: Some(threads), look }).unwrap();
+            assert_eq!(at(1).data, at(2).data, "{id}");
+        }
+    }
+
+    #[test]
+    fn looks_change_the_picture_as_asked() {
+        let identity = IdentityTable::built_in().get("wm2").unwrap();
+        let neutral = Expression::neutral();
+        let with = |look| FrameSettings { width: 96, height: 96, threads: Some(1), look };
+        let grey = render_still(&neutral, identity, with(Look { grayscale: true, ..Look::default() })).unwrap();
+        assert!(grey.data.chunks(3).all(|p| p[0] == p[1] && p[1] == p[2]), "grayscale has equal channels");
+        let red = Look { backdrop: "#ff0000".parse().unwrap(), ..Look::default() };
+        assert_eq!(render_still(&neutral, identity, with(red)).unwrap().pixel(0, 0), [255, 0, 0]);
+        let black = Look { backdrop: look::Backdrop::Black, ..Look::default() };
+        assert_eq!(render_still(&neutral, identity, with(black)).unwrap().pixel(0, 0), [0, 0, 0]);
+        let default = render_still(&neutral, identity, with(Look::default())).unwrap();
+        for light in [look::LightPreset::Soft, look::LightPreset::Dramatic] {
+            assert_ne!(render_still(&neutral, identity, with(Look { light, ..Look::default() })).unwrap().data, default.data, "{light}");
+        }
+        let clear = Look { backdrop: look::Backdrop::Transparent, ..Look::default() };
+        let Frame::Rgba(rgba) = render_frame(&neutral, identity, with(clear)).unwrap() else { panic!("transparent gives RGBA") };
+        let alpha: Vec<u8> = rgba.data.chunks(4).map(|p| p[3]).collect();
+        assert_eq!(alpha[0], 0, "the corner is backdrop");
+        assert_eq!(alpha[48 * 96 + 48], 255, "the face is opaque");
+        assert!(alpha.iter().any(|&a| a > 0 && a < 255), "edges are partly covered");
+    }
+
     #[test]
     fn sizes_out_of_range_are_refused() {
         let identity = IdentityTable::built_in().get("wm1").unwrap();
-        let settings = FrameSettings { width: 8, height: 480, threads: None };
+        let settings = FrameSettings { width: 8, height: 480, threads: None, ..Default::default() };
         assert!(matches!(render_still(&Expression::neutral(), identity, settings), Err(EngineError::Size(8, 480))));
     }
 }

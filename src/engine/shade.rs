@@ -18,7 +18,11 @@ use std::sync::{Arc, Mutex, OnceLock};
 use glam::{Vec2, Vec3};
 
 use super::asset::{FaceModel, Part};
+use super::body::Body;
 use super::identity::Identity;
+use super::hair::Hair;
+use super::{BODY_PART, HAIR_PART};
+use super::look::{Backdrop, Lighting, Look};
 use super::pose::Posed;
 use super::camera::Camera;
 use super::raster::{self, Fragment, RenderOptions, SampleCount, Shader, Triangles};
@@ -38,25 +42,6 @@ fn regions(model: &FaceModel) -> &'static Regions {
     })
 }
 
-/// A directional light.
-struct Light {
-    direction: Vec3,
-    colour: Vec3,
-}
-
-/// The studio: a warm key light from the viewer's upper left, a cool fill, a rim light and a
-/// sky/ground ambient term.
-fn lights() -> [Light; 3] {
-    [
-        Light { direction: key_light_direction(), colour: Vec3::new(1.3, 1.21, 1.12) },
-        Light { direction: Vec3::new(0.75, 0.0, 0.65).normalize(), colour: Vec3::new(0.22, 0.24, 0.28) },
-        Light { direction: Vec3::new(0.3, 0.6, -0.75).normalize(), colour: Vec3::new(0.35, 0.35, 0.35) },
-    ]
-}
-
-const SKY: Vec3 = Vec3::new(0.16, 0.17, 0.19);
-const GROUND: Vec3 = Vec3::new(0.07, 0.06, 0.055);
-
 /// Depth of the head as seen from the key light, for cast shadows (the nose on the cheek, the
 /// brow ridge on the eyes, the chin on the neck).
 pub struct ShadowMap {
@@ -67,9 +52,9 @@ pub struct ShadowMap {
 
 impl ShadowMap {
     /// Renders the depth of `scene` from the key light, aimed at `centre`.
-    pub fn new(scene: &[Triangles], centre: Vec3, size: u32, threads: Option<usize>) -> ShadowMap {
+    pub fn new(scene: &[Triangles], key_direction: Vec3, centre: Vec3, size: u32, threads: Option<usize>) -> ShadowMap {
         let camera = Camera {
-            eye: centre + key_light_direction() * 60.0,
+            eye: centre + key_direction * 60.0,
             target: centre,
             up: Vec3::Y,
             fov_y_degrees: 3.6,
@@ -109,10 +94,6 @@ impl ShadowMap {
     }
 }
 
-fn key_light_direction() -> Vec3 {
-    Vec3::new(-0.5, 0.5, 0.71).normalize()
-}
-
 /// Slowly varying painted features and region weights of one skin vertex, interpolated across
 /// triangles together.
 #[derive(Clone, Copy, Debug, Default)]
@@ -124,19 +105,70 @@ struct SkinVertex {
     hair: f32,
     lips: f32,
     inside_mouth: f32,
+    /// The lid margin: the band of lid thickness between the lash line and the eyeball.
+    margin: f32,
+    /// 1 on the lower lid, 0 on the upper.
+    lower: f32,
+    /// The caruncle at the inner corner of the eye.
+    caruncle: f32,
+    /// Redder zones (nose, ears) and the darker skin around the eyes.
+    flush: f32,
+    periorbital: f32,
 }
 
 impl SkinVertex {
-    const FIELDS: usize = 7;
+    const FIELDS: usize = 12;
 
     fn to_array(self) -> [f32; Self::FIELDS] {
-        [self.mottle, self.cheek, self.oily, self.beard, self.hair, self.lips, self.inside_mouth]
+        [
+            self.mottle,
+            self.cheek,
+            self.oily,
+            self.beard,
+            self.hair,
+            self.lips,
+            self.inside_mouth,
+            self.margin,
+            self.lower,
+            self.caruncle,
+            self.flush,
+            self.periorbital,
+        ]
     }
 
     fn from_array(a: [f32; Self::FIELDS]) -> SkinVertex {
-        let [mottle, cheek, oily, beard, hair, lips, inside_mouth] = a;
-        SkinVertex { mottle, cheek, oily, beard, hair, lips, inside_mouth }
+        let [mottle, cheek, oily, beard, hair, lips, inside_mouth, margin, lower, caruncle, flush, periorbital] = a;
+        SkinVertex { mottle, cheek, oily, beard, hair, lips, inside_mouth, margin, lower, caruncle, flush, periorbital }
     }
+}
+
+/// The lines a face shows at rest with age (depth at 70 years), from the appearance
+/// channels' height fields.
+const AGE_LINES: [(&str, f32); 4] = [("crows_feet", 0.45), ("forehead_inner", 0.3), ("forehead_outer", 0.25), ("nasolabial", 0.45)];
+
+fn age_lines() -> &'static [(Relief, f32)] {
+    static LINES: OnceLock<Vec<(Relief, f32)>> = OnceLock::new();
+    LINES.get_or_init(|| {
+        AGE_LINES.iter().filter_map(|(name, depth)| PATTERNS.iter().find(|(n, _)| n == name).map(|(_, relief)| (*relief, *depth))).collect()
+    })
+}
+
+/// The eyeballs of the rest mesh (centre, radius; see `stimuli/face/README.md`), for the lid
+/// margins.
+const REST_EYE_CENTRE: Vec3 = Vec3::new(0.30777, 7.28414, 1.24535);
+const REST_EYE_RADIUS: f32 = 0.14954;
+
+/// Lid margin, lower-lid and caruncle weights of a rest position.
+fn lid_features(p: Vec3) -> (f32, f32, f32) {
+    let m = Vec3::new(p.x.abs(), p.y, p.z);
+    let gap = (m - REST_EYE_CENTRE).length() - REST_EYE_RADIUS;
+    let margin = 1.0 - smoothstep(-0.004, 0.006, gap);
+    if margin == 0.0 {
+        return (0.0, 0.0, 0.0);
+    }
+    let lower = 1.0 - smoothstep(7.275, 7.295, p.y);
+    let caruncle = margin * (1.0 - smoothstep(0.205, 0.228, m.x));
+    (margin, lower, caruncle)
 }
 
 /// The painted features of one person's skin, per skin vertex (they depend only on the rest
@@ -162,6 +194,7 @@ impl SkinMaps {
             .iter()
             .enumerate()
             .map(|(i, &p)| {
+                let (margin, lower, caruncle) = lid_features(p);
                 SkinVertex {
                     mottle: 1.0 + 0.06 * (fbm(p * 40.0) - 0.5),
                     cheek: blob(Vec2::new(p.x.abs(), p.y), Vec2::new(0.38, 6.95), Vec2::new(0.14, 0.12)),
@@ -170,6 +203,11 @@ impl SkinMaps {
                     hair: hair_mask(p, identity.hairline) * (1.0 - regions.ears[i]),
                     lips: regions.lips[i],
                     inside_mouth: regions.inside_mouth[i],
+                    margin,
+                    lower,
+                    caruncle,
+                    flush: blob(Vec2::new(p.x, p.y), Vec2::new(0.0, 6.98), Vec2::new(0.13, 0.2)) * smoothstep(1.35, 1.5, p.z) + 0.8 * regions.ears[i],
+                    periorbital: blob(Vec2::new(p.x.abs(), p.y), Vec2::new(0.29, 7.2), Vec2::new(0.17, 0.09)) * (1.0 - margin),
                 }
                 .to_array()
             })
@@ -193,19 +231,26 @@ pub struct FaceShader<'a> {
     maps: Arc<SkinMaps>,
     /// Fraction of the key light reaching each vertex (1 everywhere without a shadow map).
     key_light: Vec<f32>,
+    /// The generated neck and shoulders, and the key light reaching each of their vertices.
+    body: Option<&'a Body>,
+    body_key_light: Vec<f32>,
+    /// The hair cards, and the key light reaching each of their vertices.
+    hair: Option<&'a Hair>,
+    hair_key_light: Vec<f32>,
     patterns: ActivePatterns,
     /// The union of the active patterns' boxes: no relief outside it.
     relief_bounds: [f32; 4],
     model: &'a FaceModel,
     posed: &'a Posed,
     identity: &'a Identity,
-    lights: [Light; 3],
-    /// The backdrop's colour on each image row (a vertical gradient), worked out once.
+    lighting: Lighting,
+    backdrop_kind: Backdrop,
+    /// The backdrop's colour on each image row, worked out once.
     backdrop: Vec<Vec3>,
 }
 
 impl<'a> FaceShader<'a> {
-    pub fn new(model: &'a FaceModel, posed: &'a Posed, identity: &'a Identity, height: u32) -> FaceShader<'a> {
+    pub fn new(model: &'a FaceModel, posed: &'a Posed, identity: &'a Identity, look: &Look, height: u32) -> FaceShader<'a> {
         let patterns: ActivePatterns = PATTERNS
             .iter()
             .filter_map(|(name, pattern)| {
@@ -219,15 +264,46 @@ impl<'a> FaceShader<'a> {
         });
         let maps = SkinMaps::cached(model, identity);
         let key_light = vec![1.0; posed.positions.len()];
-        let backdrop = (0..height).map(|y| backdrop_colour(y, height)).collect();
-        FaceShader { maps, key_light, patterns, relief_bounds, model, posed, identity, lights: lights(), backdrop }
+        let backdrop = (0..height).map(|y| look.backdrop.colour(y, height)).collect();
+        let lighting = look.light.lighting();
+        let (body, body_key_light, hair, hair_key_light) = (None, Vec::new(), None, Vec::new());
+        FaceShader { maps, key_light, body, body_key_light, hair, hair_key_light, patterns, relief_bounds, model, posed, identity, lighting, backdrop_kind: look.backdrop, backdrop }
     }
 
     /// Casts the key light's shadows from `shadow`, looked up once per vertex (offset along the
     /// normal so that surfaces do not shadow themselves) and interpolated across triangles.
     pub fn with_shadows(self, shadow: &ShadowMap) -> FaceShader<'a> {
         let key_light = self.posed.positions.iter().zip(&self.posed.normals).map(|(&p, &n)| shadow.light(p + n * 0.02)).collect();
-        FaceShader { key_light, ..self }
+        let body_key_light = match self.body {
+            Some(body) => body.positions.iter().zip(&body.normals).map(|(&p, &n)| shadow.light(p + n * 0.02)).collect(),
+            None => Vec::new(),
+        };
+        // Hair has no normal to offset along: the lookup is nudged toward the light instead.
+        let key = self.lighting.lights[0].direction;
+        let hair_key_light = match self.hair {
+            Some(hair) => hair.positions.iter().map(|&p| shadow.light(p + key * 0.03)).collect(),
+            None => Vec::new(),
+        };
+        FaceShader { key_light, body_key_light, hair_key_light, ..self }
+    }
+
+    /// Shades hair cards too (scene part [`HAIR_PART`]).
+    pub fn with_hair(self, hair: &'a Hair) -> FaceShader<'a> {
+        FaceShader { hair_key_light: vec![1.0; hair.positions.len()], hair: Some(hair), ..self }
+    }
+
+    /// The key light reaching each vertex of the scene item `part`.
+    fn key_light_of(&self, part: u16) -> &[f32] {
+        match part {
+            BODY_PART => &self.body_key_light,
+            HAIR_PART => &self.hair_key_light,
+            _ => &self.key_light,
+        }
+    }
+
+    /// Shades the generated neck and shoulders too (scene part [`BODY_PART`]).
+    pub fn with_body(self, body: &'a Body) -> FaceShader<'a> {
+        FaceShader { body_key_light: vec![1.0; body.positions.len()], body: Some(body), ..self }
     }
 
     fn interpolate(&self, values: &[f32], f: &Fragment) -> f32 {
@@ -259,11 +335,12 @@ impl<'a> FaceShader<'a> {
 
     fn lit(&self, f: &Fragment, normal: Vec3, albedo: Vec3, wrap: f32, specular: f32, shininess: f32) -> Vec3 {
         let view = f.view_dir;
-        let ambient = SKY.lerp(GROUND, (0.5 - 0.5 * normal.y).clamp(0.0, 1.0));
+        let Lighting { lights, sky, ground, shadow_floor } = &self.lighting;
+        let ambient = sky.lerp(*ground, (0.5 - 0.5 * normal.y).clamp(0.0, 1.0));
         let mut colour = albedo * ambient;
-        let key_reaches = self.interpolate(&self.key_light, f);
-        for (n, light) in self.lights.iter().enumerate() {
-            let reach = if n == 0 { 0.15 + 0.85 * key_reaches } else { 1.0 };
+        let key_reaches = self.interpolate(self.key_light_of(f.part), f);
+        for (n, light) in lights.iter().enumerate() {
+            let reach = if n == 0 { shadow_floor + (1.0 - shadow_floor) * key_reaches } else { 1.0 };
             let n_dot_l = normal.dot(light.direction);
             // Wrapped diffuse lets light bleed past the terminator, red most (subsurface look).
             let wrapped = Vec3::new(
@@ -302,15 +379,27 @@ impl<'a> FaceShader<'a> {
             crease = (-h).max(0.0);
         }
 
-        // Albedo: skin with mottling, cheeks, lips, stubble, brows, hair, mouth interior. Each
-        // layer is blended in only where it is present (blending by 0 leaves the value as it is).
-        let mut albedo = identity.skin * painted.mottle;
+        // Micro relief (pores, stronger on the nose and cheeks) and the lines of age at rest.
+        let (pores, age_crease) = self.skin_relief(rest, &painted, &mut normal);
+        crease += age_crease;
+
+        // Albedo: skin with mottling, colour zones, lips, stubble, brows, hair, lid margins.
+        // Each layer is blended in only where it is present (blending by 0 leaves the value).
+        let mut albedo = identity.skin * painted.mottle * (1.0 - 0.05 * pores);
         let cheek = painted.cheek;
         if cheek != 0.0 {
             albedo = albedo.lerp(albedo * Vec3::new(1.08, 0.9, 0.88), 0.5 * cheek);
         }
+        if painted.flush != 0.0 {
+            albedo = albedo.lerp(albedo * Vec3::new(1.1, 0.86, 0.85), 0.55 * painted.flush.min(1.0));
+        }
+        if painted.periorbital != 0.0 {
+            albedo = albedo.lerp(albedo * Vec3::new(0.84, 0.8, 0.84), 0.6 * painted.periorbital);
+        }
         if lips != 0.0 {
-            albedo = albedo.lerp(identity.lips, lips);
+            // The vermilion border: a thin lighter line where lip meets skin.
+            let border = 1.0 + 0.18 * (1.0 - (2.0 * lips - 1.0).abs()) * smoothstep(0.05, 0.3, painted.lips);
+            albedo = albedo.lerp(identity.lips, lips) * border;
         }
         let beard = painted.beard * (1.0 - lips);
         if beard > 0.0 {
@@ -319,54 +408,183 @@ impl<'a> FaceShader<'a> {
         }
         let hair = painted.hair;
         if hair > 0.0 {
-            let hair_albedo = identity.hair * (0.75 + 0.5 * strands(rest));
+            let hair_albedo = identity.hair * (0.45 + 0.3 * strands(rest));
             albedo = albedo.lerp(hair_albedo, hair);
         }
         let brow = brow_mask(rest);
         if brow != 0.0 {
-            albedo = albedo.lerp(identity.hair * 0.8, brow);
+            let grey = self.identity.hair.lerp(Vec3::splat(0.5), 0.6 * self.identity.hair_grey);
+            albedo = albedo.lerp(grey * 0.8, brow);
+        }
+        let margin = painted.margin;
+        let mut wet = 0.0;
+        if margin != 0.0 {
+            // Lid thickness: pinker, moist skin; on the lower lid a wet line; the caruncle red.
+            let pink = albedo * Vec3::new(1.05, 0.72, 0.72);
+            albedo = albedo.lerp(pink, 0.7 * margin);
+            albedo = albedo.lerp(Vec3::new(0.55, 0.2, 0.2), 0.8 * painted.caruncle);
+            wet = margin * (0.35 + 0.65 * painted.lower).max(painted.caruncle);
+            // The upper lash line is dark.
+            albedo *= 1.0 - 0.55 * margin * (1.0 - painted.lower) * (1.0 - painted.caruncle);
         }
         if crease != 0.0 {
             albedo *= 1.0 - 0.15 * crease.min(1.0);
         }
         let oily = painted.oily;
-        let specular = (0.35 + 0.35 * oily) * (1.0 - hair) * (1.0 - 0.8 * brow) + 0.6 * lips;
-        let shininess = 18.0 + 30.0 * lips;
+        // Matte cheeks, an oilier T-zone, pores break up the highlight; wet lids shine.
+        let specular = (0.16 + 0.3 * oily) * (1.0 - 0.35 * pores) * (1.0 - hair) * (1.0 - 0.8 * brow) + 0.5 * lips + 1.2 * wet;
+        let shininess = 16.0 + 24.0 * lips + 48.0 * wet.min(1.0);
         let mut colour = self.lit(f, normal, albedo, 0.35 * (1.0 - hair), specular, shininess);
+        colour += self.subsurface_bleed(f, normal, albedo) * (1.0 - hair);
         // The mouth interior is dark, more so the deeper it lies behind the lips.
         if mouth > 0.0 {
             let depth = (1.52 - rest.z).max(0.0);
             let interior = Vec3::new(0.16, 0.035, 0.035) * (-depth * 7.0).exp();
             colour = colour.lerp(interior, (mouth * 1.5).min(1.0));
         }
-        // The neck fades into the background above the cut, like a vignetted portrait.
-        let fade = smoothstep(5.86, 6.18, rest.y);
-        if fade == 1.0 { colour } else { colour.lerp(self.background(f.pixel.0, f.pixel.1), 1.0 - fade) }
+        colour
+    }
+
+    /// Pores and the lines of age at rest (crow's feet, forehead, nasolabial folds, deeper
+    /// with age), as a bump on `normal`. Returns the pore depth (0..1) and the age crease.
+    fn skin_relief(&self, rest: Vec3, painted: &SkinVertex, normal: &mut Vec3) -> (f32, f32) {
+        if painted.hair > 0.9 || painted.inside_mouth > 0.5 {
+            return (0.0, 0.0);
+        }
+        let face = 1.0 - painted.lips;
+        let strength = face * (0.5 + 0.5 * (painted.cheek + painted.flush + painted.oily).min(1.0));
+        let q = rest * 150.0;
+        let pore = value_noise(q);
+        let gx = value_noise(q + Vec3::X * 0.35) - pore;
+        let gy = value_noise(q + Vec3::Y * 0.35) - pore;
+        let mut bump = Vec3::new(gx, gy, 0.0) * (0.9 * strength);
+        let age = smoothstep(28.0, 70.0, self.identity.age);
+        let mut crease = 0.0;
+        if age > 0.0 {
+            let m = Vec2::new(rest.x.abs(), rest.y);
+            let lines = |p: Vec2| age_lines().iter().map(|(relief, depth)| depth * relief.at(p)).sum::<f32>();
+            let h = lines(m);
+            if h != 0.0 {
+                let e = 0.003;
+                let hx = (lines(m + Vec2::new(e, 0.0)) - h) / e * rest.x.signum();
+                let hy = (lines(m + Vec2::new(0.0, e)) - h) / e;
+                bump += Vec3::new(hx, hy, 0.0) * (0.006 * age);
+                crease = (-h * age).max(0.0);
+            }
+        }
+        *normal = (*normal - bump).normalize();
+        (smoothstep(0.55, 0.9, pore) * strength, crease)
+    }
+
+    /// Light that scattered under the skin: a red glow along the key light's terminator.
+    fn subsurface_bleed(&self, f: &Fragment, normal: Vec3, albedo: Vec3) -> Vec3 {
+        let key = &self.lighting.lights[0];
+        let n_dot_l = normal.dot(key.direction);
+        let edge = (1.0 - (n_dot_l - 0.05).abs() * 4.0).max(0.0);
+        if edge == 0.0 {
+            return Vec3::ZERO;
+        }
+        let reach = self.interpolate(self.key_light_of(f.part), f);
+        albedo * key.colour * Vec3::new(0.16, 0.035, 0.02) * edge * (0.3 + 0.7 * reach)
+    }
+
+    /// Hair: Kajiya–Kay lighting of the strand direction (diffuse across the strand, two
+    /// highlights along it, the second tinted by the hair), fine fibres across each card,
+    /// darker near the roots and inside the volume.
+    fn shade_hair(&self, f: &Fragment, hair: &Hair) -> Vec3 {
+        let model = &hair.model;
+        let strand = (f.triangle / model.triangles_per_strand) as usize;
+        let tone = model.strand_tone.get(strand).copied().unwrap_or(1.0);
+        let grey = model.strand_grey.get(strand).copied().unwrap_or(0.0);
+        // Greying: white strands among pigmented ones, which themselves lose some colour.
+        let faded = self.identity.hair.lerp(Vec3::splat(self.identity.hair.dot(Vec3::splat(1.0 / 3.0))), 0.4 * self.identity.hair_grey);
+        let pigment = faded.lerp(Vec3::new(0.4, 0.4, 0.38), grey);
+        let fibres = 0.72 + 0.28 * value_noise(Vec3::new(f.uv.x * 7.0, f.uv.y * 3.0, strand as f32 * 1.618));
+        let rooted = 0.45 + 0.55 * smoothstep(0.0, 0.35, f.uv.y);
+        let albedo = pigment * tone * fibres * rooted;
+        let tangent = f.normal;
+        let view = f.view_dir;
+        let Lighting { lights, sky, ground, shadow_floor } = &self.lighting;
+        let key_reaches = self.interpolate(&self.hair_key_light, f);
+        let mut colour = albedo * sky.lerp(*ground, 0.5) * 1.2;
+        for (n, light) in lights.iter().enumerate() {
+            let reach = if n == 0 { shadow_floor + (1.0 - shadow_floor) * key_reaches } else { 1.0 };
+            let t_l = tangent.dot(light.direction);
+            let diffuse = (1.0 - t_l * t_l).max(0.0).sqrt() * 0.75;
+            colour += albedo * light.colour * diffuse * reach;
+            if n == 0 {
+                let half = (light.direction + view).normalize();
+                let t_h = tangent.dot(half);
+                let along = (1.0 - t_h * t_h).max(0.0).sqrt();
+                let primary = lobe_power(along, 48.0) * 0.09;
+                let secondary = lobe_power(along, 12.0) * 0.12 * fibres;
+                colour += light.colour * (Vec3::splat(primary) + pigment * 2.0 * secondary) * reach * rooted;
+            }
+        }
+        colour
+    }
+
+    /// The neck below the cut and the crew-neck top over the shoulders.
+    fn shade_body(&self, f: &Fragment) -> Vec3 {
+        let p = f.position;
+        let around = p.x.atan2(p.z - 0.25).cos();
+        // The neckline: lower at the front than at the back, a ribbed band along it.
+        let shift = self.body.map_or(0.0, |b| b.shift.y);
+        let neckline = 5.64 + shift + 0.09 * (1.0 - around);
+        let below = neckline - p.y;
+        if below < 0.0 {
+            let albedo = self.identity.skin * (1.0 + 0.06 * (fbm(p * 40.0) - 0.5));
+            return self.lit(f, f.normal, albedo, 0.35, 0.25, 18.0);
+        }
+        let rib = 1.0 - smoothstep(0.05, 0.06, below);
+        let stripes = 0.5 + 0.5 * (p.x * 260.0 + p.z * 260.0).sin();
+        let weave = value_noise(p * 300.0);
+        // Soft folds: a low-frequency wobble of the normal.
+        let fold = Vec3::new(value_noise(p * Vec3::new(6.0, 3.0, 6.0)) - 0.5, 0.0, value_noise(p * Vec3::new(6.0, 3.0, 6.0) + 9.0) - 0.5);
+        let mut normal = (f.normal + 0.25 * fold).normalize();
+        if rib > 0.0 {
+            normal = (normal + Vec3::new(0.0, 0.35 * (1.0 - 2.0 * smoothstep(0.0, 0.06, below)), 0.0) * rib).normalize();
+        }
+        let texture = 0.93 + 0.07 * weave - 0.08 * rib * stripes;
+        self.lit(f, normal, self.identity.top * texture, 0.25, 0.04, 8.0)
     }
 
     fn shade_eye(&self, f: &Fragment, side: usize) -> Vec3 {
         let eye = self.posed.eyes[side];
         let d = (f.position - eye.centre).normalize();
-        let angle = d.dot(eye.gaze).clamp(-1.0, 1.0).acos();
         let right = eye.up.cross(eye.gaze);
-        let around = d.dot(right).atan2(d.dot(eye.up));
+        // The iris lies behind the cornea: seen at an angle its pattern shifts away from the
+        // viewer (parallax), which gives it depth.
+        let tilt = f.view_dir - eye.gaze * f.view_dir.dot(eye.gaze);
+        let seen = (d - tilt * 0.06 * smoothstep(0.0, 0.6, d.dot(eye.gaze))).normalize();
+        let angle = seen.dot(eye.gaze).clamp(-1.0, 1.0).acos();
+        let around = seen.dot(right).atan2(seen.dot(eye.up));
         let iris_edge = 0.52;
         let pupil = 0.19;
-        let sclera = Vec3::new(0.80, 0.76, 0.72).lerp(Vec3::new(0.75, 0.55, 0.50), smoothstep(0.9, 1.5, angle));
-        let fibres = 0.75 + 0.5 * value_noise(Vec3::new(around * 14.0, angle * 30.0, 0.0));
-        let iris = self.identity.iris * fibres * (1.0 - 0.55 * smoothstep(iris_edge - 0.12, iris_edge, angle));
-        let mut albedo = sclera.lerp(iris, 1.0 - smoothstep(iris_edge - 0.015, iris_edge + 0.015, angle));
-        albedo = albedo.lerp(Vec3::splat(0.01), 1.0 - smoothstep(pupil - 0.02, pupil + 0.01, angle));
-        // The upper lid shades the top of the eyeball.
-        let lid_shadow = 1.0 - 0.45 * smoothstep(0.1, 0.7, d.dot(eye.up));
+        let sclera = Vec3::new(0.78, 0.74, 0.70).lerp(Vec3::new(0.74, 0.52, 0.48), smoothstep(0.8, 1.45, angle));
+        let fibres = 0.7 + 0.6 * value_noise(Vec3::new(around * 14.0, angle * 30.0, side as f32 * 7.0));
+        // Iris: a lighter collarette around the pupil, radial fibres, a dark limbal ring.
+        let collarette = 1.0 + 0.35 * (1.0 - smoothstep(0.0, 0.08, (angle - 0.29).abs()));
+        let limbal = 1.0 - 0.7 * smoothstep(iris_edge - 0.1, iris_edge - 0.01, angle);
+        let iris = self.identity.iris * fibres * collarette * limbal;
+        let mut albedo = sclera.lerp(iris, 1.0 - smoothstep(iris_edge - 0.01, iris_edge + 0.03, angle));
+        albedo = albedo.lerp(Vec3::splat(0.008), 1.0 - smoothstep(pupil - 0.02, pupil + 0.01, angle));
+        // The upper lid and lashes shade the top of the eyeball; the eye sits in its socket.
+        let up = d.dot(eye.up);
+        let lid_shadow = (1.0 - 0.6 * smoothstep(0.0, 0.45, up)) * (1.0 - 0.25 * smoothstep(0.55, 1.0, d.dot(right).abs()));
         let colour = self.lit(f, d, albedo * lid_shadow, 0.1, 0.0, 1.0);
         colour + self.cornea_highlight(d, f.view_dir) * self.interpolate(&self.key_light, f)
     }
 
+    /// Reflections on the wet cornea: the key light as a small bright catchlight, the fill as
+    /// a faint one.
     fn cornea_highlight(&self, normal: Vec3, view: Vec3) -> Vec3 {
-        let key = &self.lights[0];
-        let half = (key.direction + view).normalize();
-        key.colour * 0.9 * normal.dot(half).max(0.0).powf(600.0)
+        let [key, fill, _] = &self.lighting.lights;
+        let reflect = |l: &super::look::Light, power: f32, strength: f32| {
+            let half = (l.direction + view).normalize();
+            l.colour * strength * normal.dot(half).max(0.0).powf(power)
+        };
+        reflect(key, 900.0, 1.6) + reflect(fill, 300.0, 0.5)
     }
 
     fn shade_mouth_part(&self, f: &Fragment, base: Vec3, specular: f32) -> Vec3 {
@@ -391,6 +609,12 @@ impl<'a> FaceShader<'a> {
 
 impl Shader for FaceShader<'_> {
     fn shade(&self, f: &Fragment) -> Vec3 {
+        if f.part == BODY_PART {
+            return self.shade_body(f);
+        }
+        if let (HAIR_PART, Some(hair)) = (f.part, self.hair) {
+            return self.shade_hair(f, hair);
+        }
         match Part::from_id(f.part) {
             Some(Part::Skin) | None => self.shade_skin(f),
             Some(part @ (Part::EyeLeft | Part::EyeRight)) => self.shade_eye(f, Self::eye_index(part)),
@@ -410,14 +634,8 @@ impl Shader for FaceShader<'_> {
 
     fn background(&self, _x: u32, y: u32) -> Vec3 {
         let height = self.backdrop.len() as u32;
-        self.backdrop.get(y as usize).copied().unwrap_or_else(|| backdrop_colour(y, height))
+        self.backdrop.get(y as usize).copied().unwrap_or_else(|| self.backdrop_kind.colour(y, height))
     }
-}
-
-/// The backdrop on row `y` of an image `height` rows high: lighter at the top.
-fn backdrop_colour(y: u32, height: u32) -> Vec3 {
-    let t = y as f32 / height.max(1) as f32;
-    Vec3::new(0.20, 0.21, 0.23).lerp(Vec3::new(0.11, 0.115, 0.125), t)
 }
 
 // ---- painted features (rest space, decimetres; x is the person's left) ----
@@ -481,23 +699,9 @@ fn brow_mask(rest: Vec3) -> f32 {
     (body * ends * (0.75 + 0.35 * strand)).clamp(0.0, 1.0)
 }
 
-/// Scalp hair: above a hairline that runs high over the forehead and low at the nape.
+/// Scalp hair (painted under the hair cards): see [`super::hair::scalp_mask`].
 fn hair_mask(rest: Vec3, raise: f32) -> f32 {
-    let x = rest.x.abs();
-    // Hairline height as a smooth function of depth: high over the forehead, down over the
-    // temples and ears, low at the nape.
-    let front = 8.02 + 2.4 * (x - 0.35).max(0.0).powi(2);
-    let profile = [(0.0, 6.75), (0.35, 7.25), (0.85, 7.6), (1.15, front)];
-    let z = rest.z.clamp(0.0, 1.15);
-    let line = profile
-        .windows(2)
-        .find(|w| z <= w[1].0)
-        .map_or(front, |w| {
-            let t = smoothstep(w[0].0, w[1].0, z);
-            w[0].1 + (w[1].1 - w[0].1) * t
-        });
-    let edge = 0.025 + 0.02 * value_noise(rest * 90.0);
-    smoothstep(line + raise - edge, line + raise + edge, rest.y)
+    super::hair::scalp_mask(rest, raise, value_noise(rest * 90.0))
 }
 
 /// Beard shadow: jaw, chin and upper lip, below the cheeks.

@@ -33,6 +33,7 @@ use crate::engine::identity::IdentityTable;
 use crate::engine::image::RgbImage;
 use crate::engine::timeline::Timeline;
 use crate::engine::video::{Mp4Encoder, even_size};
+use crate::engine::look::{Backdrop, Look};
 use crate::engine::{self, FrameSettings};
 use crate::facs::Catalog;
 
@@ -103,6 +104,23 @@ pub fn plan(spec: &SetSpec) -> Vec<ManifestRow> {
     spec.entries.iter().map(|entry| planned_row(spec, entry, &stimulus_id(spec.seed, entry.index))).collect()
 }
 
+/// The engine version, with the look appended when it is not the default (so that a change of
+/// look makes the files out of date): e.g. `0.1.0+backdrop-black+light-soft+grayscale`.
+fn engine_version(look: &Look) -> String {
+    let mut version = ENGINE_VERSION.to_string();
+    let default = Look::default();
+    if look.backdrop != default.backdrop {
+        version += &format!("+backdrop-{}", look.backdrop.to_string().trim_start_matches('#'));
+    }
+    if look.light != default.light {
+        version += &format!("+light-{}", look.light);
+    }
+    if look.grayscale {
+        version += "+grayscale";
+    }
+    version
+}
+
 /// The row an entry will have, with `sha256` still empty.
 fn planned_row(spec: &SetSpec, entry: &Entry, id: &str) -> ManifestRow {
     let (w, h) = spec.size;
@@ -123,7 +141,7 @@ fn planned_row(spec: &SetSpec, entry: &Entry, id: &str) -> ManifestRow {
         height: h,
         sha256: String::new(),
         set_seed: spec.seed,
-        engine_version: ENGINE_VERSION.to_string(),
+        engine_version: engine_version(&spec.look),
     };
     match &entry.content {
         Content::Image(_) => ManifestRow { media: "image".into(), file: format!("media/{id}.png"), ..base },
@@ -304,9 +322,19 @@ fn render_entry(
     progress: &dyn Fn(usize),
 ) -> Result<String, BuildError> {
     let fail = |message: String| BuildError::Render { entry: entry.origin.clone(), message };
-    let identity = IdentityTable::built_in().get(&entry.identity).map_err(|e| fail(e.to_string()))?;
-    let settings = FrameSettings { width: spec.size.0, height: spec.size.1, threads: Some(1) };
+    let identity = IdentityTable::active().get(&entry.identity).map_err(|e| fail(e.to_string()))?;
+    let settings = FrameSettings { width: spec.size.0, height: spec.size.1, threads: Some(1), look: spec.look };
     match &entry.content {
+        Content::Image(expression) if spec.look.backdrop == Backdrop::Transparent => {
+            // RGBA stills are not shared with videos (which have no alpha).
+            let frame = engine::render_frame(expression, identity, settings).map_err(|e| fail(e.to_string()))?;
+            let key = FrameKey::new(&entry.identity, spec.size, expression);
+            shared.release([&key]);
+            let bytes = frame.encode_png();
+            write_atomic(&out.join("media").join(format!("{id}.png")), &bytes)?;
+            progress(1);
+            Ok(sha256_hex(&bytes))
+        }
         Content::Image(expression) => {
             let key = FrameKey::new(&entry.identity, spec.size, expression);
             let image = match shared.get(&key) {
@@ -372,7 +400,7 @@ pub fn render_video(
     on_frame: &mut dyn FnMut(usize, &RgbImage),
 ) -> Result<Vec<u8>, VideoBuildError> {
     let catalog = Catalog::built_in();
-    let identity = IdentityTable::built_in().get(&timeline.identity).map_err(|e| {
+    let identity = IdentityTable::active().get(&timeline.identity).map_err(|e| {
         VideoBuildError::Io(BuildError::Render { entry: timeline.identity.clone(), message: e.to_string() })
     })?;
     let partial_dir = frames_dir.map(|d| d.with_file_name(format!(".{}.partial", d.file_name().unwrap_or_default().to_string_lossy())));

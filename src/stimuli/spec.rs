@@ -9,6 +9,10 @@
 //! name = "exp1"
 //! seed = 1001
 //! # size = [485, 480]; fps = 30; identities = ["wm1", "wm2", "bm1", "bm2", "wf1", "wf2", "bf1", "bf2"]
+//! # identities_file = "people.toml"   # more people (relative to the spec), usable in `identities`
+//! # backdrop = "grey"                  # or "black", "#RRGGBB", "transparent" (stills only)
+//! # light = "studio"                   # or "soft", "dramatic"
+//! # grayscale = false
 //!
 //! [[group]]
 //! name = "single AUs"
@@ -25,6 +29,7 @@
 use serde::Deserialize;
 
 use crate::engine::identity::IdentityTable;
+use crate::engine::look::{Backdrop, LightPreset, Look};
 use crate::engine::timeline::{ClipTiming, Timeline};
 use crate::facs::{AppraisalTable, Catalog, EmotionTable, Expression};
 
@@ -64,6 +69,14 @@ struct RawSpec {
     fps: Option<u32>,
     #[serde(default)]
     identities: Option<Vec<String>>,
+    #[serde(default)]
+    identities_file: Option<String>,
+    #[serde(default)]
+    backdrop: Option<String>,
+    #[serde(default)]
+    light: Option<String>,
+    #[serde(default)]
+    grayscale: bool,
     #[serde(default)]
     png_frames: bool,
     group: Vec<RawGroup>,
@@ -126,6 +139,8 @@ pub struct SetSpec {
     pub seed: u64,
     pub size: (u32, u32),
     pub fps: u32,
+    /// Backdrop, light and colour of every stimulus.
+    pub look: Look,
     /// Also write every video frame as PNG (`frames/<id>/000000.png`).
     pub png_frames: bool,
     pub entries: Vec<Entry>,
@@ -170,13 +185,24 @@ impl SetSpec {
     /// Reads and validates a spec against the built-in catalog, emotion and CPT tables and
     /// identities.
     pub fn from_toml(text: &str) -> Result<SetSpec, SpecError> {
+        SetSpec::from_toml_in(text, std::path::Path::new("."))
+    }
+
+    /// As [`SetSpec::from_toml`], with the paths inside the spec (`identities_file`) relative
+    /// to `base`; the people of `identities_file` are installed for the rest of the process.
+    pub fn from_toml_in(text: &str, base: &std::path::Path) -> Result<SetSpec, SpecError> {
         if text.len() > MAX_SPEC_BYTES {
             return Err(fail("spec", format!("{} bytes is over the 1 MiB a set specification may have", text.len())));
         }
         let raw: RawSpec = toml::from_str(text).map_err(|e| fail("spec", format!("not a valid set specification: {e}")))?;
         check_lengths(&raw)?;
         let catalog = Catalog::built_in();
-        let identities_table = IdentityTable::built_in();
+        if let Some(file) = &raw.identities_file {
+            let path = base.join(file);
+            let people = std::fs::read_to_string(&path).map_err(|e| fail("spec", format!("identities_file {}: {e}", path.display())))?;
+            IdentityTable::install(&people).map_err(|e| fail("spec", format!("identities_file {}: {e}", path.display())))?;
+        }
+        let identities_table = IdentityTable::active();
         let size = raw.size.unwrap_or([crate::engine::DEFAULT_SIZE.0, crate::engine::DEFAULT_SIZE.1]);
         if !(16..=4096).contains(&size[0]) || !(16..=4096).contains(&size[1]) {
             return Err(fail("spec", format!("size {}×{} is out of range (each side 16..=4096)", size[0], size[1])));
@@ -194,6 +220,16 @@ impl SetSpec {
         }
         if raw.group.is_empty() {
             return Err(fail("spec", "no [[group]]"));
+        }
+        let look = Look {
+            backdrop: raw.backdrop.as_deref().unwrap_or("grey").parse::<Backdrop>().map_err(|e| fail("spec", e.to_string()))?,
+            light: raw.light.as_deref().unwrap_or("studio").parse::<LightPreset>().map_err(|e| fail("spec", e.to_string()))?,
+            grayscale: raw.grayscale,
+        };
+        if look.backdrop == Backdrop::Transparent {
+            if let Some(group) = raw.group.iter().find(|g| !g.video_peaks.is_empty()) {
+                return Err(fail(format!("group \"{}\"", group.name), "videos cannot have a transparent backdrop (remove video_peaks or choose another backdrop)"));
+            }
         }
 
         let mut entries = Vec::new();
@@ -272,6 +308,7 @@ impl SetSpec {
             seed: raw.seed,
             size: (size[0], size[1]),
             fps,
+            look,
             png_frames: raw.png_frames,
             entries,
         })
@@ -284,7 +321,7 @@ impl SetSpec {
             return Err(fail(path.display().to_string(), format!("{bytes} bytes is over the 1 MiB a set specification may have")));
         }
         let text = std::fs::read_to_string(path).map_err(|e| fail(path.display().to_string(), e.to_string()))?;
-        SetSpec::from_toml(&text)
+        SetSpec::from_toml_in(&text, path.parent().unwrap_or(std::path::Path::new(".")))
     }
 
     /// How many frames the set renders (videos count every frame; stills count one).

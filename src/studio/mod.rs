@@ -88,10 +88,14 @@ pub struct StudioArgs {
     /// Port to listen on (0 = any free port).
     #[arg(long, default_value_t = 8090)]
     pub port: u16,
+    /// Also offer the people of this identity file (same format as stimuli/engine/identities.toml).
+    #[arg(long)]
+    pub identities: Option<std::path::PathBuf>,
 }
 
 /// Runs `facslab studio` until Ctrl-C.
 pub fn studio_command(args: StudioArgs) -> anyhow::Result<()> {
+    crate::cli::install_identities(args.identities.as_deref())?;
     let runtime = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
     runtime.block_on(serve(SocketAddr::new(args.host, args.port)))?;
     Ok(())
@@ -123,13 +127,14 @@ async fn catalog() -> Json<serde_json::Value> {
         })
         .collect();
     let people: Vec<serde_json::Value> =
-        IdentityTable::built_in().iter().map(|p| serde_json::json!({ "id": p.id, "description": p.description })).collect();
+        IdentityTable::active().iter().map(|p| serde_json::json!({ "id": p.id, "description": p.description })).collect();
     let presets: Vec<serde_json::Value> =
         EmotionTable::built_in().iter().map(|e| serde_json::json!({ "label": e.label, "expression": e.expression.to_string() })).collect();
     let (width, height) = crate::engine::DEFAULT_SIZE;
     Json(serde_json::json!({
         "aus": aus, "people": people, "presets": presets,
         "defaults": { "identity": request::DEFAULT_IDENTITY, "size": format!("{width}x{height}") },
+        "backdrops": ["grey", "black", "transparent"], "lights": ["studio", "soft", "dramatic"],
         "limits": { "expression_bytes": crate::facs::MAX_NOTATION_LEN, "side": request::MAX_SIDE, "video_frames": request::MAX_VIDEO_FRAMES },
     }))
 }

@@ -12,6 +12,7 @@
 use serde::Deserialize;
 
 use crate::engine::identity::{Identity, IdentityTable};
+use crate::engine::look::{Backdrop, LightPreset, Look};
 use crate::engine::timeline::{ClipTiming, Timeline};
 use crate::engine::{self, FrameSettings};
 use crate::facs::{Catalog, Expression, MAX_NOTATION_LEN};
@@ -39,6 +40,14 @@ pub struct RenderRequest {
     /// With `timeline`: render only this frame (0-based) as a PNG, for scrubbing.
     #[serde(default)]
     pub frame: Option<usize>,
+    /// `grey` (default), `black`, `#RRGGBB` or `transparent` (an RGBA PNG; stills only).
+    #[serde(default)]
+    pub backdrop: Option<String>,
+    /// `studio` (default), `soft` or `dramatic`.
+    #[serde(default)]
+    pub light: Option<String>,
+    #[serde(default)]
+    pub grayscale: bool,
 }
 
 /// A HapFACS clip to turn into a timeline (`POST /api/v1/timeline`), as `facslab render EXPR
@@ -126,17 +135,24 @@ fn excerpt(text: &str, max: usize) -> String {
 /// A checked request, ready to render.
 #[derive(Debug, Clone)]
 pub enum Job {
-    Still { expression: Expression, identity: &'static Identity, size: (u32, u32) },
-    Video(Box<Timeline>),
+    Still { expression: Expression, identity: &'static Identity, size: (u32, u32), look: Look },
+    Video(Box<Timeline>, Look),
 }
 
-fn frame_of(timeline: &Timeline, frame: usize) -> Result<Job, RequestError> {
+/// The look a request asks for, as `facslab render --backdrop --light --grayscale` reads it.
+fn look(backdrop: Option<&str>, light: Option<&str>, grayscale: bool) -> Result<Look, RequestError> {
+    let backdrop = backdrop.unwrap_or("grey").parse::<Backdrop>().map_err(|e| RequestError::field("backdrop", excerpt(&e.to_string(), 120)))?;
+    let light = light.unwrap_or("studio").parse::<LightPreset>().map_err(|e| RequestError::field("light", excerpt(&e.to_string(), 120)))?;
+    Ok(Look { backdrop, light, grayscale })
+}
+
+fn frame_of(timeline: &Timeline, frame: usize, look: Look) -> Result<Job, RequestError> {
     if frame >= timeline.frame_count() {
         return Err(RequestError::field("frame", format!("frame {frame} is past the last frame ({})", timeline.frame_count().saturating_sub(1))));
     }
     let expression = timeline.frame_expression(frame, Catalog::built_in()).map_err(|e| RequestError::field("timeline", e.to_string()))?;
     let person = identity(Some(&timeline.identity))?;
-    Ok(Job::Still { expression, identity: person, size: (timeline.size[0], timeline.size[1]) })
+    Ok(Job::Still { expression, identity: person, size: (timeline.size[0], timeline.size[1]), look })
 }
 
 /// The bytes of a render and what they are.
@@ -173,7 +189,7 @@ pub fn parse_size(text: &str) -> Result<(u32, u32), RequestError> {
 
 fn identity(id: Option<&str>) -> Result<&'static Identity, RequestError> {
     let id = id.unwrap_or(DEFAULT_IDENTITY);
-    IdentityTable::built_in()
+    IdentityTable::active()
         .get(id)
         .map_err(|_| RequestError::field("identity", format!("no person \"{}\" (GET /api/v1/catalog lists them)", excerpt(id, 24))))
 }
@@ -194,6 +210,7 @@ fn timeline(value: serde_json::Value) -> Result<Timeline, RequestError> {
 impl RenderRequest {
     /// Checks the request completely; nothing renders yet.
     pub fn parse(self) -> Result<Job, RequestError> {
+        let look = look(self.backdrop.as_deref(), self.light.as_deref(), self.grayscale)?;
         match (self.expression, self.timeline) {
             (Some(_), Some(_)) => Err(RequestError::field("timeline", "give either `expression` (a still) or `timeline` (a video), not both")),
             (None, None) => Err(RequestError::field("expression", "missing: give `expression` (a still) or `timeline` (a video)")),
@@ -203,8 +220,11 @@ impl RenderRequest {
                 }
                 let timeline = timeline(value)?;
                 match self.frame {
-                    Some(frame) => frame_of(&timeline, frame),
-                    None => Ok(Job::Video(Box::new(timeline))),
+                    Some(frame) => frame_of(&timeline, frame, look),
+                    None if look.backdrop == Backdrop::Transparent => {
+                        Err(RequestError::field("backdrop", "a video cannot have a transparent backdrop"))
+                    }
+                    None => Ok(Job::Video(Box::new(timeline), look)),
                 }
             }
             (Some(_), None) if self.frame.is_some() => Err(RequestError::field("frame", "`frame` goes with `timeline`")),
@@ -212,7 +232,7 @@ impl RenderRequest {
                 let expression = parse_expression(&text)?;
                 let identity = identity(self.identity.as_deref())?;
                 let size = self.size.as_deref().map(parse_size).transpose()?.unwrap_or(engine::DEFAULT_SIZE);
-                Ok(Job::Still { expression, identity, size })
+                Ok(Job::Still { expression, identity, size, look })
             }
         }
     }
@@ -223,13 +243,13 @@ impl Job {
     /// MP4 `facslab render --timeline FILE` writes.
     pub fn render(self) -> Result<Rendered, RequestError> {
         match self {
-            Job::Still { expression, identity, size } => {
-                let settings = FrameSettings { width: size.0, height: size.1, threads: None };
-                let image = engine::render_still(&expression, identity, settings).map_err(|e| RequestError::Render(e.to_string()))?;
-                Ok(Rendered { bytes: image.encode_png(), video: false })
+            Job::Still { expression, identity, size, look } => {
+                let settings = FrameSettings { width: size.0, height: size.1, threads: None, look };
+                let frame = engine::render_frame(&expression, identity, settings).map_err(|e| RequestError::Render(e.to_string()))?;
+                Ok(Rendered { bytes: frame.encode_png(), video: false })
             }
-            Job::Video(timeline) => {
-                let settings = FrameSettings { width: timeline.size[0], height: timeline.size[1], threads: Some(1) };
+            Job::Video(timeline, look) => {
+                let settings = FrameSettings { width: timeline.size[0], height: timeline.size[1], threads: Some(1), look };
                 let bytes = crate::stimuli::render_video(&timeline, settings, None, true, None, &mut |_, _| {})
                     .map_err(|e| RequestError::Render(e.to_string()))?;
                 Ok(Rendered { bytes, video: true })
@@ -271,6 +291,8 @@ mod tests {
     #[test]
     fn a_still_or_a_video_but_not_both() {
         assert!(matches!(request(serde_json::json!({ "expression": "12" })), Ok(Job::Still { size: (485, 480), .. })));
+        let err = request(serde_json::json!({ "expression": "12", "backdrop": "plaid" })).unwrap_err();
+        assert_eq!(err.to_json()["field"], "backdrop");
         let both = serde_json::json!({ "expression": "12", "timeline": { "duration_s": 1.0, "tracks": [] } });
         assert!(request(both).is_err());
         assert!(request(serde_json::json!({})).is_err());

@@ -28,7 +28,7 @@ const CASES: &[(&str, &str, u32, u32)] = &[
 fn render_hash(expression: &str, identity: &str, width: u32, height: u32) -> String {
     let expression = Catalog::built_in().parse(expression).expect("valid expression");
     let identity = IdentityTable::built_in().get(identity).expect("known identity");
-    let image = render_still(&expression, identity, FrameSettings { width, height, threads: None }).expect("renders");
+    let image = render_still(&expression, identity, FrameSettings { width, height, threads: None, ..Default::default() }).expect("renders");
     Sha256::digest(image.encode_png()).iter().map(|b| format!("{b:02x}")).collect()
 }
 

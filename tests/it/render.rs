@@ -79,3 +79,55 @@ fn sheet_renders_every_au() {
     // neutral + 54 AUs + 2 × 31 one-sided variants = 117 tiles, 12 rows of 10.
     assert_eq!((width, height), (480, 12 * (48 + 22)));
 }
+
+#[test]
+fn identities_lists_at_least_24_people() {
+    let dir = tempfile::tempdir().unwrap();
+    let output = facslab_ok(dir.path(), &["identities"]);
+    assert!(String::from_utf8_lossy(&output.stdout).lines().count() >= 24);
+}
+
+/// A person generated into a file renders from that file, without rebuilding facslab; a damaged
+/// file fails with the line and the field named.
+#[test]
+fn people_from_a_file_render_and_bad_files_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let new = ["identities", "new", "--sex", "F", "--age", "44", "--ancestry", "south-asian", "--seed", "5", "-o", "people.toml"];
+    let output = facslab_ok(dir.path(), &new);
+    assert_eq!(String::from_utf8_lossy(&output.stdout).trim(), "saf5");
+    facslab_ok(dir.path(), &["identities", "new", "--sex", "M", "--age", "61", "--ancestry", "hispanic", "--seed", "5", "-o", "people.toml"]);
+    let listed = facslab_ok(dir.path(), &["identities", "--identities", "people.toml"]);
+    let text = String::from_utf8_lossy(&listed.stdout);
+    assert!(text.contains("saf5") && text.contains("hlm5") && text.contains("wm1"), "{text}");
+    facslab_ok(dir.path(), &["render", "12", "--identities", "people.toml", "--identity", "hlm5", "-o", "p.png", "--size", "64x64"]);
+    assert!(dir.path().join("p.png").exists());
+    let people = std::fs::read_to_string(dir.path().join("people.toml")).unwrap();
+    let broken = people.replacen("age = 61", "age = 610", 1);
+    std::fs::write(dir.path().join("bad.toml"), &broken).unwrap();
+    let line = 1 + broken.lines().position(|l| l == "age = 610").unwrap();
+    let output = facslab(dir.path(), &["render", "12", "--identities", "bad.toml", "--identity", "hlm5", "-o", "bad.png"]);
+    assert!(!output.status.success());
+    let message = stderr(&output);
+    assert!(message.contains(&format!("line {line}")) && message.contains("`age`") && message.contains("hlm5"), "{message}");
+    assert!(!dir.path().join("bad.png").exists());
+}
+
+fn png_colour_type(path: &std::path::Path) -> u8 {
+    let bytes = std::fs::read(path).expect("the image was written");
+    bytes[25]
+}
+
+#[test]
+fn backdrops_lights_and_grayscale_from_the_command_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let base = |out: &'static str| vec!["render", "6+12", "--identity", "wf2", "--size", "96x96", "-o", out];
+    facslab_ok(dir.path(), &[base("cut.png"), vec!["--backdrop", "transparent"]].concat());
+    assert_eq!(png_colour_type(&dir.path().join("cut.png")), 6, "RGBA");
+    facslab_ok(dir.path(), &[base("grey.png"), vec!["--grayscale", "--light", "dramatic", "--backdrop", "#203040"]].concat());
+    assert_eq!(png_colour_type(&dir.path().join("grey.png")), 2, "RGB");
+    let output = facslab(dir.path(), &[base("bad.png"), vec!["--backdrop", "plaid"]].concat());
+    assert!(!output.status.success() && stderr(&output).contains("plaid"), "{}", stderr(&output));
+    facslab_ok(dir.path(), &["sheet", "--set", "aus", "-o", "s.png", "--tile", "32x32", "--backdrop", "black", "--light", "soft", "--grayscale"]);
+    let output = facslab(dir.path(), &["sheet", "-o", "t.png", "--tile", "32x32", "--backdrop", "transparent"]);
+    assert!(!output.status.success());
+}

@@ -194,7 +194,7 @@ fn stimuli_apex_frame_equals_the_still_and_ground_truth_matches_each_frame() {
             let ordered = order_like(&activations, &timeline);
             let expression = Expression::from_activations(ordered, catalog).unwrap();
             let identity = IdentityTable::built_in().get(&video.identity).unwrap();
-            let image = render_still(&expression, identity, FrameSettings { width: 64, height: 64, threads: Some(1) }).unwrap();
+            let image = render_still(&expression, identity, FrameSettings { width: 64, height: 64, threads: Some(1), ..Default::default() }).unwrap();
             let frame = std::fs::read(set.join(format!("frames/{id}/{f:06}.png"))).unwrap();
             assert_eq!(rgb(&frame).2, image.data, "{id} frame {f} was not rendered with the ground truth's intensities");
         }
@@ -421,4 +421,27 @@ fn stimuli_merge_refuses_shards_that_do_not_make_one_set() {
     std::fs::write(dir.path().join("s2").join(&rows[0].file), b"damaged").unwrap();
     refused(&["stimuli", "merge", "s1", "s2", "s3", "-o", "m"], "sha256 differs");
     assert!(!dir.path().join("m").join("manifest.json").exists());
+}
+
+/// A spec may add people from a file and set the look; a transparent backdrop gives RGBA
+/// stills, grayscale grey ones, and a video with a transparent backdrop is refused.
+#[test]
+fn stimuli_spec_people_from_a_file_and_the_look() {
+    let dir = tempfile::tempdir().unwrap();
+    facslab_ok(dir.path(), &["identities", "new", "--sex", "F", "--age", "30", "--ancestry", "east-asian", "--seed", "3", "-o", "people.toml"]);
+    let spec = "name = \"look\"\nseed = 4\nsize = [48, 48]\nidentities_file = \"people.toml\"\nidentities = [\"eaf3\"]\nbackdrop = \"transparent\"\nlight = \"soft\"\n[[group]]\nname = \"s\"\nexpressions = [\"12\"]\nstills = [1]\n";
+    let rows = build(dir.path(), spec, "clear");
+    assert_eq!(rows.len(), 1);
+    assert_eq!(rows[0].identity, "eaf3");
+    assert!(rows[0].engine_version.contains("backdrop-transparent") && rows[0].engine_version.contains("light-soft"));
+    let png = std::fs::read(dir.path().join("clear").join(&rows[0].file)).unwrap();
+    assert_eq!(png[25], 6, "an RGBA PNG");
+    let grey = spec.replace("backdrop = \"transparent\"", "grayscale = true");
+    let rows = build(dir.path(), &grey, "grey");
+    let (_, _, pixels) = rgb(&std::fs::read(dir.path().join("grey").join(&rows[0].file)).unwrap());
+    assert!(pixels.chunks(3).all(|p| p[0] == p[1] && p[1] == p[2]), "grey stills");
+    let video = spec.replace("stills = [1]", "video_peaks = [1]");
+    std::fs::write(dir.path().join("video.toml"), video).unwrap();
+    let output = facslab(dir.path(), &["stimuli", "check", "video.toml"]);
+    assert!(!output.status.success() && stderr(&output).contains("transparent"), "{}", stderr(&output));
 }

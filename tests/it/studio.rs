@@ -66,6 +66,12 @@ async fn studio_render_api_gives_the_bytes_facslab_render_writes() {
     let api = response.bytes().await.unwrap();
     assert!(api == std::fs::read(dir.path().join("cli.png")).unwrap(), "the API's PNG differs from facslab render's");
 
+    // With a look: the same bytes as the CLI's options.
+    facslab_ok(dir.path(), &["render", "12", "--identity", "bm1", "--size", "64x64", "--backdrop", "black", "--light", "dramatic", "--grayscale", "-o", "look.png"]);
+    let body = json!({ "expression": "12", "identity": "bm1", "size": "64x64", "backdrop": "black", "light": "dramatic", "grayscale": true });
+    let api = studio.post("/api/v1/render", &body).await.bytes().await.unwrap();
+    assert!(api == std::fs::read(dir.path().join("look.png")).unwrap(), "the API's PNG with a look differs from facslab render's");
+
     // The catalog the page is built from has every AU.
     let catalog: Value = reqwest::get(studio.url("/api/v1/catalog")).await.unwrap().json().await.unwrap();
     assert_eq!(catalog["aus"].as_array().unwrap().len(), facslab::facs::Catalog::built_in().len());

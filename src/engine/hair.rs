@@ -1,0 +1,570 @@
+//! Hair as geometry: strands grown from the scalp of the face model and drawn as thin, tapered
+//! cards (ribbons), generated from the identity's hair data (style, texture, parting,
+//! hairline); no third-party hair assets.
+//!
+//! In: the face model, the identity and its neutral head. Out: [`HairModel`] (cached per
+//! person): card vertices in the neutral head's space with the strand direction (tangent) and
+//! `uv` (across, along) per vertex, per-strand tone and greyness; [`HairModel::posed`] moves
+//! the cards with the head for one frame (the head's rigid motion plus the local movement of
+//! each strand's root).
+//!
+//! Growth: each root is a fixed point of a scalp triangle (sampled by area and the scalp mask
+//! with fixed hashes, in triangle order); a strand starts along the comb direction (away from
+//! the parting, back and down at the back of the head), bends under gravity, takes the curl of
+//! its texture and is kept outside the head (a spherical height map of the skin), outside the
+//! face and above the shoulders.
+//! Invariant: a pure function of its inputs in a fixed order: the same person gives the same
+//! cards, bytes and all, on any thread count.
+
+use std::collections::BTreeMap;
+use std::sync::{Arc, Mutex, OnceLock};
+
+use glam::{Mat3, Vec2, Vec3};
+
+use super::asset::{FaceModel, Part};
+use super::identity::{HairStyle, HairTexture, Identity, Parting};
+use super::pose::Posed;
+
+/// Where the camera looks from (the cards turn their face to it).
+const VIEW_FROM: Vec3 = Vec3::new(0.0, 7.4, 11.0);
+
+/// Centre of the spherical height map of the head.
+const HEAD_CENTRE: Vec3 = Vec3::new(0.0, 7.45, 0.35);
+const MAP_POLAR: usize = 48;
+const MAP_AZIMUTH: usize = 96;
+
+/// Hair cards of one person in the neutral head's space.
+pub struct HairModel {
+    pub positions: Vec<Vec3>,
+    /// Unit direction of the strand at each vertex (root to tip).
+    pub tangents: Vec<Vec3>,
+    /// `x` across the card (0..1), `y` along the strand (0 at the root, 1 at the tip).
+    pub uvs: Vec<Vec2>,
+    pub triangles: Vec<[u32; 3]>,
+    /// Per strand: brightness factor and grey (0 = pigmented, 1 = white).
+    pub strand_tone: Vec<f32>,
+    pub strand_grey: Vec<f32>,
+    /// Triangles per strand (every strand has the same number).
+    pub triangles_per_strand: u32,
+    /// Per vertex: the skin vertex nearest to the strand's root, and how much of that root's
+    /// local movement the vertex follows (1 at the root, fading along the strand).
+    root_vertex: Vec<u32>,
+    root_follow: Vec<f32>,
+}
+
+/// The hair cards of one frame.
+pub struct Hair {
+    pub positions: Vec<Vec3>,
+    pub tangents: Vec<Vec3>,
+    pub model: Arc<HairModel>,
+}
+
+/// One style's numbers.
+struct StyleShape {
+    /// Strand length (decimetres) on top of the head and at the back/sides.
+    length_top: f32,
+    length_back: f32,
+    /// Roots per square decimetre of scalp.
+    density: f32,
+    segments: usize,
+    /// Half-width of a card at the root.
+    width: f32,
+    /// How much strands stand off the scalp at the start (0 = flat along it).
+    lift: f32,
+    /// Pull of gravity per decimetre of strand.
+    gravity: f32,
+    /// How strongly strands over the skull are drawn back onto it (0 = free, 1 = flat on it).
+    hug: f32,
+    /// Strands are gathered to this point (bun, ponytail).
+    gather: Option<Vec3>,
+}
+
+fn style_shape(style: HairStyle, texture: HairTexture) -> StyleShape {
+    let coiled = texture == HairTexture::Coiled;
+    let base = |length_top, length_back, density, segments, width, lift, gravity| StyleShape {
+        length_top,
+        length_back,
+        density,
+        segments,
+        width,
+        lift,
+        gravity,
+        hug: if coiled { 0.0 } else { 0.6 },
+        gather: None,
+    };
+    match style {
+        HairStyle::Cropped => base(0.05, 0.04, 1100.0, 2, 0.010, 0.05, 0.0),
+        HairStyle::Short if coiled => base(0.12, 0.1, 1200.0, 5, 0.02, 0.6, 0.0),
+        HairStyle::Short => base(0.32, 0.16, 900.0, 7, 0.012, 0.06, 1.0),
+        HairStyle::Medium if coiled => base(0.38, 0.34, 1000.0, 8, 0.024, 0.7, 0.3),
+        HairStyle::Medium => base(1.0, 0.9, 700.0, 12, 0.016, 0.05, 2.5),
+        HairStyle::Shoulder => base(1.75, 1.6, 800.0, 16, 0.016, 0.05, 3.0),
+        HairStyle::Long => base(2.7, 2.5, 800.0, 20, 0.016, 0.05, 3.0),
+        HairStyle::Bun => StyleShape { gather: Some(Vec3::new(0.0, 8.15, -0.42)), hug: 0.85, ..base(1.2, 0.9, 700.0, 12, 0.014, 0.02, 0.0) },
+        HairStyle::Ponytail => StyleShape { gather: Some(Vec3::new(0.0, 7.85, -0.5)), hug: 0.85, ..base(1.2, 0.9, 700.0, 12, 0.014, 0.02, 0.0) },
+    }
+}
+
+/// The spherical height map of the neutral head: the skin's largest distance from
+/// [`HEAD_CENTRE`] in each direction.
+struct HeadMap {
+    radius: Vec<f32>,
+}
+
+impl HeadMap {
+    fn new(skin: &[Vec3]) -> HeadMap {
+        let mut radius = vec![0.0f32; MAP_POLAR * MAP_AZIMUTH];
+        for &p in skin {
+            let (cell, r) = Self::cell(p);
+            radius[cell] = radius[cell].max(r);
+        }
+        // Fill empty cells from their neighbours (a few passes reach every cell).
+        for _ in 0..8 {
+            let previous = radius.clone();
+            for i in 0..MAP_POLAR {
+                for j in 0..MAP_AZIMUTH {
+                    if previous[i * MAP_AZIMUTH + j] > 0.0 {
+                        continue;
+                    }
+                    let mut best = 0.0f32;
+                    for (di, dj) in [(-1i32, 0i32), (1, 0), (0, -1), (0, 1)] {
+                        let ii = (i as i32 + di).clamp(0, MAP_POLAR as i32 - 1) as usize;
+                        let jj = (j as i32 + dj).rem_euclid(MAP_AZIMUTH as i32) as usize;
+                        best = best.max(previous[ii * MAP_AZIMUTH + jj]);
+                    }
+                    radius[i * MAP_AZIMUTH + j] = best;
+                }
+            }
+        }
+        // Widen each cell to its neighbours' largest value, so that lookups between vertices
+        // do not dip below the surface.
+        let previous = radius.clone();
+        for i in 0..MAP_POLAR {
+            for j in 0..MAP_AZIMUTH {
+                let mut best = previous[i * MAP_AZIMUTH + j];
+                for (di, dj) in [(-1i32, 0i32), (1, 0), (0, -1), (0, 1)] {
+                    let ii = (i as i32 + di).clamp(0, MAP_POLAR as i32 - 1) as usize;
+                    let jj = (j as i32 + dj).rem_euclid(MAP_AZIMUTH as i32) as usize;
+                    best = best.max(previous[ii * MAP_AZIMUTH + jj]);
+                }
+                radius[i * MAP_AZIMUTH + j] = best;
+            }
+        }
+        HeadMap { radius }
+    }
+
+    fn cell(p: Vec3) -> (usize, f32) {
+        let d = p - HEAD_CENTRE;
+        let r = d.length();
+        let polar = (d.y / r.max(1e-6)).clamp(-1.0, 1.0).acos() / std::f32::consts::PI;
+        let azimuth = (d.x.atan2(d.z) / std::f32::consts::TAU).rem_euclid(1.0);
+        let i = ((polar * MAP_POLAR as f32) as usize).min(MAP_POLAR - 1);
+        let j = ((azimuth * MAP_AZIMUTH as f32) as usize).min(MAP_AZIMUTH - 1);
+        (i * MAP_AZIMUTH + j, r)
+    }
+
+    /// The skin's distance from the centre in the direction of `p`.
+    fn surface(&self, p: Vec3) -> f32 {
+        self.radius[Self::cell(p).0]
+    }
+
+    /// `p` moved by `amount` (0..1) of the way back toward `clearance` above the skin, when it
+    /// is further out than that.
+    fn draw_towards(&self, p: Vec3, clearance: f32, amount: f32) -> Vec3 {
+        let d = p - HEAD_CENTRE;
+        let r = d.length();
+        let target = self.surface(p) + clearance;
+        if r <= target { p } else { HEAD_CENTRE + d * ((r + (target - r) * amount) / r.max(1e-6)) }
+    }
+
+    /// `p` moved out along the ray from the centre until it is `clearance` above the skin.
+    fn keep_outside(&self, p: Vec3, clearance: f32) -> Vec3 {
+        let d = p - HEAD_CENTRE;
+        let r = d.length();
+        let floor = self.surface(p) + clearance;
+        if r >= floor { p } else { HEAD_CENTRE + d * (floor / r.max(1e-6)) }
+    }
+}
+
+/// Keeps hanging hair beside the face (not over it) and above the shoulders.
+fn keep_clear_of_face_and_shoulders(mut p: Vec3) -> Vec3 {
+    // In front of the ears and below the hairline, hair stays beside the cheeks and jaw.
+    if p.z > 0.15 && p.y < 7.75 {
+        let half_width = if p.y > 6.9 { 0.84 } else { 0.62 + 0.22 * ((p.y - 6.1) / 0.8).clamp(0.0, 1.0) };
+        if p.x.abs() < half_width {
+            p.x = half_width * if p.x < 0.0 { -1.0 } else { 1.0 };
+        }
+    }
+    // Around the neck.
+    if p.y < 6.3 {
+        let radial = Vec2::new(p.x, p.z - 0.2);
+        let r = radial.length();
+        if r < 0.62 {
+            let out = if r > 1e-4 { radial / r } else { Vec2::new(0.0, -1.0) };
+            p.x = out.x * 0.62;
+            p.z = 0.2 + out.y * 0.62;
+        }
+    }
+    // On the shoulders (a rough slope from the neck out to the shoulder tip).
+    let x = p.x.abs();
+    if x > 0.55 {
+        let shoulder = 5.5 - 0.3 * ((x - 0.55) / 1.3).clamp(0.0, 1.0) + 0.02;
+        if p.y < shoulder && p.z > -0.7 && p.z < 1.0 {
+            p.y = shoulder;
+        }
+    }
+    p
+}
+
+/// Fixed hash of a few integers to [0, 1).
+fn hash01(a: u32, b: u32, c: u32) -> f32 {
+    let mut h = a.wrapping_mul(0x9e37_79b1) ^ b.wrapping_mul(0x85eb_ca77) ^ c.wrapping_mul(0xc2b2_ae3d);
+    h ^= h >> 15;
+    h = h.wrapping_mul(0x2c1b_3c6d);
+    h ^= h >> 12;
+    h = h.wrapping_mul(0x297a_2d39);
+    h ^= h >> 15;
+    (h >> 8) as f32 / (1u32 << 24) as f32
+}
+
+/// Where on the scalp hair grows (1) or not (0), at a rest position of the base mesh: above a
+/// hairline that runs high over the forehead, down over the temples and low at the nape.
+pub fn scalp_mask(rest: Vec3, raise: f32, noise: f32) -> f32 {
+    let x = rest.x.abs();
+    let front = 8.02 + 2.4 * (x - 0.35).max(0.0).powi(2);
+    let profile = [(0.0, 6.75), (0.35, 7.25), (0.85, 7.6), (1.15, front)];
+    let z = rest.z.clamp(0.0, 1.15);
+    let line = profile.windows(2).find(|w| z <= w[1].0).map_or(front, |w| {
+        let t = smooth(w[0].0, w[1].0, z);
+        w[0].1 + (w[1].1 - w[0].1) * t
+    });
+    let edge = 0.025 + 0.02 * noise;
+    smooth(line + raise - edge, line + raise + edge, rest.y)
+}
+
+fn smooth(e0: f32, e1: f32, x: f32) -> f32 {
+    let t = ((x - e0) / (e1 - e0)).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
+/// A strand's root: position and normal on the neutral head, and the nearest skin vertex.
+struct Root {
+    position: Vec3,
+    normal: Vec3,
+    rest: Vec3,
+    vertex: u32,
+}
+
+impl HairModel {
+    /// The hair of `identity`, grown once per person and shared by every frame.
+    pub fn cached(model: &FaceModel, identity: &Identity, neutral: &[Vec3]) -> Arc<HairModel> {
+        static CACHE: OnceLock<Mutex<BTreeMap<String, Arc<HairModel>>>> = OnceLock::new();
+        let made: Result<_, std::convert::Infallible> =
+            super::cached(CACHE.get_or_init(Default::default), identity.id.clone(), || Ok(HairModel::new(model, identity, neutral)));
+        made.unwrap_or_else(|never| match never {})
+    }
+
+    pub fn new(model: &FaceModel, identity: &Identity, neutral: &[Vec3]) -> HairModel {
+        let shape = style_shape(identity.hair_style, identity.hair_texture);
+        let skin_end = model.part(Part::Skin).vertices.end as usize;
+        // A person's head sits elsewhere than the base mesh's (the macro shapes move it): grow
+        // the hair with the eyes where the base mesh has them, then move it back.
+        let offset = eye_midpoint(model, neutral) - eye_midpoint(model, &model.rest);
+        let aligned: Vec<Vec3> = neutral[..skin_end].iter().map(|&p| p - offset).collect();
+        let head = HeadMap::new(&aligned);
+        let roots = sample_roots(model, identity, &aligned, &shape);
+        let mut hair = HairModel {
+            positions: Vec::new(),
+            tangents: Vec::new(),
+            uvs: Vec::new(),
+            triangles: Vec::new(),
+            strand_tone: Vec::new(),
+            strand_grey: Vec::new(),
+            triangles_per_strand: 2 * shape.segments as u32,
+            root_vertex: Vec::new(),
+            root_follow: Vec::new(),
+        };
+        for (n, root) in roots.iter().enumerate() {
+            let points = grow(root, n as u32, identity, &shape, &head);
+            hair.add_card(&points, root.vertex, shape.width * (0.7 + 0.6 * hash01(n as u32, 7, 1)));
+            hair.strand_tone.push(0.8 + 0.4 * hash01(n as u32, 8, 2));
+            hair.strand_grey.push(if hash01(n as u32, 9, 3) < identity.hair_grey { 0.75 + 0.25 * hash01(n as u32, 10, 4) } else { 0.0 });
+        }
+        if let (HairStyle::Bun, Some(centre)) = (identity.hair_style, shape.gather) {
+            hair.add_bun(centre, &shape, roots.first().map_or(0, |r| r.vertex), identity.hair_grey);
+        }
+        for p in &mut hair.positions {
+            *p += offset;
+        }
+        hair
+    }
+
+    /// Appends one strand's card: two vertices per point, tapering to the tip.
+    fn add_card(&mut self, points: &[Vec3], root_vertex: u32, width: f32) {
+        let base = self.positions.len() as u32;
+        let last = points.len() - 1;
+        for (k, &p) in points.iter().enumerate() {
+            let tangent = if k < last { points[k + 1] - p } else { p - points[k - 1] }.normalize_or(Vec3::NEG_Y);
+            let to_eye = (VIEW_FROM - p).normalize();
+            let side = tangent.cross(to_eye).normalize_or(Vec3::X);
+            let t = k as f32 / last as f32;
+            let half = width * (1.0 - 0.75 * t * t);
+            for (s, u) in [(-1.0, 0.0), (1.0, 1.0)] {
+                self.positions.push(p + side * (half * s));
+                self.tangents.push(tangent);
+                self.uvs.push(Vec2::new(u, t));
+                self.root_vertex.push(root_vertex);
+                self.root_follow.push((1.0 - t * 2.0).max(0.0));
+            }
+        }
+        for k in 0..last as u32 {
+            let (a, b, c, d) = (base + 2 * k, base + 2 * k + 1, base + 2 * k + 2, base + 2 * k + 3);
+            self.triangles.push([a, c, d]);
+            self.triangles.push([a, d, b]);
+        }
+    }
+
+    /// A bun: strands wound around a ball at `centre`, as cards of the same length as the others.
+    fn add_bun(&mut self, centre: Vec3, shape: &StyleShape, root_vertex: u32, grey: f32) {
+        let ball = centre + Vec3::new(0.0, 0.05, -0.2);
+        let radius = 0.3;
+        let count = 260;
+        for n in 0..count {
+            let tilt = std::f32::consts::PI * hash01(n, 11, 5);
+            let start = std::f32::consts::TAU * hash01(n, 12, 6);
+            let axis = Vec3::new(tilt.cos(), hash01(n, 13, 7) - 0.5, tilt.sin()).normalize();
+            let (u, v) = orthonormal(axis);
+            let r = radius * (0.85 + 0.2 * hash01(n, 14, 8));
+            let points: Vec<Vec3> = (0..=shape.segments)
+                .map(|k| {
+                    let a = start + 3.5 * k as f32 / shape.segments as f32;
+                    ball + (u * a.cos() + v * a.sin()) * r
+                })
+                .collect();
+            self.add_card(&points, root_vertex, shape.width * 1.2);
+            self.strand_tone.push(0.8 + 0.4 * hash01(n, 15, 9));
+            self.strand_grey.push(if hash01(n, 16, 10) < grey { 0.8 } else { 0.0 });
+        }
+    }
+
+    /// The cards of one frame: moved with the head's rigid motion (from three scalp points),
+    /// and near each root with the root's own movement.
+    pub fn posed(self: &Arc<HairModel>, model: &FaceModel, posed: &Posed) -> Hair {
+        let [top, left, right] = anchor_vertices(model);
+        let frame = |p: &[Vec3]| {
+            let (t, l, r) = (p[top as usize], p[left as usize], p[right as usize]);
+            let origin = (t + l + r) / 3.0;
+            let e1 = (l - r).normalize();
+            let e2 = (t - origin - e1 * (t - origin).dot(e1)).normalize();
+            (origin, Mat3::from_cols(e1, e2, e1.cross(e2)))
+        };
+        let (o0, f0) = frame(&posed.neutral);
+        let (o1, f1) = frame(&posed.positions);
+        let rotation = f1 * f0.transpose();
+        let moved = |p: Vec3| o1 + rotation * (p - o0);
+        let positions = self
+            .positions
+            .iter()
+            .zip(self.root_vertex.iter().zip(&self.root_follow))
+            .map(|(&p, (&v, &follow))| {
+                let rigid = moved(p);
+                if follow > 0.0 {
+                    let local = posed.positions[v as usize] - moved(posed.neutral[v as usize]);
+                    rigid + local * follow
+                } else {
+                    rigid
+                }
+            })
+            .collect();
+        let tangents = self.tangents.iter().map(|&t| rotation * t).collect();
+        Hair { positions, tangents, model: Arc::clone(self) }
+    }
+}
+
+/// The midpoint of the two eyeballs' vertices in `positions`.
+fn eye_midpoint(model: &FaceModel, positions: &[Vec3]) -> Vec3 {
+    let range = model.part(Part::EyeLeft).vertices.start as usize..model.part(Part::EyeRight).vertices.end as usize;
+    positions[range.clone()].iter().sum::<Vec3>() / range.len() as f32
+}
+
+fn orthonormal(axis: Vec3) -> (Vec3, Vec3) {
+    let helper = if axis.y.abs() < 0.9 { Vec3::Y } else { Vec3::X };
+    let u = axis.cross(helper).normalize();
+    (u, axis.cross(u))
+}
+
+/// Three skin vertices that move with the skull: the top of the head and the two sides.
+fn anchor_vertices(model: &FaceModel) -> [u32; 3] {
+    static ANCHORS: OnceLock<[u32; 3]> = OnceLock::new();
+    *ANCHORS.get_or_init(|| {
+        let skin = &model.rest[..model.part(Part::Skin).vertices.end as usize];
+        let best = |score: &dyn Fn(Vec3) -> f32| {
+            (0..skin.len()).max_by(|&a, &b| score(skin[a]).total_cmp(&score(skin[b])).then(b.cmp(&a))).unwrap_or(0) as u32
+        };
+        let top = best(&|p| p.y);
+        let left = best(&|p| if (7.8..8.1).contains(&p.y) { p.x } else { f32::MIN });
+        let right = best(&|p| if (7.8..8.1).contains(&p.y) { -p.x } else { f32::MIN });
+        [top, left, right]
+    })
+}
+
+/// Roots by area and scalp mask, in triangle order.
+fn sample_roots(model: &FaceModel, identity: &Identity, neutral: &[Vec3], shape: &StyleShape) -> Vec<Root> {
+    let mut roots = Vec::new();
+    let ears = model.region("ears").unwrap_or_default();
+    for (t, &[a, b, c]) in model.part(Part::Skin).triangles.iter().enumerate() {
+        let [ra, rb, rc] = [a, b, c].map(|v| model.rest[v as usize]);
+        let centre = (ra + rb + rc) / 3.0;
+        if centre.y < 6.6 {
+            continue;
+        }
+        let ear = [a, b, c].iter().map(|&v| ears.get(v as usize).copied().unwrap_or(0.0)).fold(0.0, f32::max);
+        let mask = scalp_mask(centre, identity.hairline, 0.5) * (1.0 - ear);
+        if mask < 0.3 {
+            continue;
+        }
+        let [pa, pb, pc] = [a, b, c].map(|v| neutral[v as usize]);
+        let area = 0.5 * (pb - pa).cross(pc - pa).length();
+        let expected = area * shape.density * mask * mask;
+        let count = expected.floor() as u32 + u32::from(hash01(t as u32, 1, 0) < expected.fract());
+        let normal = (pb - pa).cross(pc - pa).normalize_or(Vec3::Y);
+        for k in 0..count {
+            let (mut u, mut v) = (hash01(t as u32, k, 2), hash01(t as u32, k, 3));
+            if u + v > 1.0 {
+                (u, v) = (1.0 - u, 1.0 - v);
+            }
+            let w = 1.0 - u - v;
+            let position = pa * w + pb * u + pc * v;
+            let rest = ra * w + rb * u + rc * v;
+            let vertex = if w >= u && w >= v { a } else if u >= v { b } else { c };
+            roots.push(Root { position, normal, rest, vertex });
+        }
+    }
+    roots
+}
+
+/// The direction hair is combed at a root (tangent to the scalp).
+fn comb_direction(root: &Root, parting: Parting, gather: Option<Vec3>) -> Vec3 {
+    let n = root.normal;
+    let r = root.rest;
+    let wanted = if let Some(point) = gather {
+        point - root.position
+    } else {
+        let parting_x = match parting {
+            Parting::Left => 0.22,
+            Parting::Right => -0.22,
+            Parting::Centre | Parting::None => 0.0,
+        };
+        let front = smooth(0.0, 0.7, r.z);
+        let sideways = if parting == Parting::None { 0.15 * r.x.signum() } else { (r.x - parting_x).signum() };
+        let back = if parting == Parting::None { 1.0 } else { 0.35 };
+        // At the front: away from the parting and a little back; behind: down the back of the head.
+        Vec3::new(sideways * front, -0.5 * (1.0 - front) - 0.1, -back * front - 0.6 * (1.0 - front))
+    };
+    let along = wanted - n * wanted.dot(n);
+    along.normalize_or(Vec3::NEG_Y)
+}
+
+/// The points of one strand, root first.
+fn grow(root: &Root, n: u32, identity: &Identity, shape: &StyleShape, head: &HeadMap) -> Vec<Vec3> {
+    let top = smooth(7.9, 8.4, root.rest.y);
+    let length = (shape.length_back + (shape.length_top - shape.length_back) * top) * (0.8 + 0.35 * hash01(n, 20, 0));
+    let step = length / shape.segments as f32;
+    let texture = identity.hair_texture;
+    let comb = comb_direction(root, identity.parting, shape.gather);
+    let mut direction = (comb * (1.0 - shape.lift) + root.normal * shape.lift).normalize();
+    // Each strand sits at its own depth in the hair's volume.
+    let layer = 0.008 + 0.05 * hash01(n, 21, 0) * (length / (length + 0.3));
+    let phase = std::f32::consts::TAU * hash01(n, 22, 0);
+    let (curl_radius, curl_period) = match texture {
+        HairTexture::Straight => (0.0, 1.0),
+        HairTexture::Wavy => (0.035, 0.45),
+        HairTexture::Curly => (0.045, 0.16),
+        HairTexture::Coiled => (0.03, 0.06),
+    };
+    let mut points = vec![root.position];
+    let mut centre = root.position;
+    for k in 1..=shape.segments {
+        if let Some(point) = shape.gather {
+            let to = point - centre;
+            if to.length() > step {
+                direction = (direction * 0.5 + to.normalize() * 0.5).normalize();
+            } else {
+                direction = (direction + Vec3::NEG_Y * 0.8).normalize();
+            }
+        }
+        direction = (direction + Vec3::NEG_Y * shape.gravity * step).normalize();
+        let mut next = centre + direction * step;
+        let clearance = layer * (k as f32 / shape.segments as f32).min(1.0).sqrt() + 0.004;
+        next = head.keep_outside(next, clearance);
+        // Over the skull, hair lies on it rather than standing off it.
+        if shape.hug > 0.0 && next.y > 7.1 {
+            next = head.draw_towards(next, clearance, shape.hug * smooth(7.1, 7.4, next.y));
+        }
+        next = keep_clear_of_face_and_shoulders(next);
+        direction = (next - centre).normalize_or(direction);
+        centre = next;
+        // Curl: an offset turning around the strand's direction.
+        let travelled = step * k as f32;
+        let (u, v) = orthonormal(direction);
+        let angle = phase + std::f32::consts::TAU * travelled / curl_period;
+        let grow_in = (travelled / 0.1).min(1.0);
+        let offset = (u * angle.cos() + v * angle.sin()) * curl_radius * grow_in;
+        points.push(head.keep_outside(centre + offset, 0.004));
+    }
+    points
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::engine::identity::IdentityTable;
+
+    fn neutral(id: &str) -> (Identity, Posed) {
+        let identity = IdentityTable::built_in().get(id).unwrap().clone();
+        let posed = crate::engine::pose_expression(&crate::facs::Expression::neutral(), &identity).unwrap();
+        (identity, posed)
+    }
+
+    #[test]
+    fn hair_grows_outside_the_head_and_repeats_exactly() {
+        let model = FaceModel::embedded();
+        for id in ["wm1", "wf1", "bf1"] {
+            let (identity, posed) = neutral(id);
+            let hair = HairModel::new(model, &identity, &posed.neutral);
+            assert!(hair.triangles.len() > 2000, "{id}: {} triangles", hair.triangles.len());
+            let again = HairModel::new(model, &identity, &posed.neutral);
+            assert_eq!(hair.positions, again.positions);
+            let offset = eye_midpoint(model, &posed.neutral) - eye_midpoint(model, &model.rest);
+            let aligned: Vec<Vec3> = posed.neutral[..model.part(Part::Skin).vertices.end as usize].iter().map(|&p| p - offset).collect();
+            let head = HeadMap::new(&aligned);
+            // Away from the roots (which sit on the skin), card vertices stay outside it.
+            let grown: Vec<Vec3> = hair.positions.iter().zip(&hair.uvs).filter(|(_, uv)| uv.y > 0.0).map(|(&p, _)| p - offset).collect();
+            let inside = grown.iter().filter(|&&p| (p - HEAD_CENTRE).length() < head.surface(p) - 0.03).count();
+            assert!(inside * 100 < grown.len(), "{id}: {inside} of {} card vertices inside the head", grown.len());
+        }
+    }
+
+    #[test]
+    fn the_neutral_pose_leaves_the_cards_in_place() {
+        let model = FaceModel::embedded();
+        let (identity, posed) = neutral("wf2");
+        let hair = Arc::new(HairModel::new(model, &identity, &posed.neutral));
+        let frame = hair.posed(model, &posed);
+        let worst = frame.positions.iter().zip(&hair.positions).map(|(a, b)| (*a - *b).length()).fold(0.0, f32::max);
+        assert!(worst < 1e-3, "{worst}");
+    }
+
+    #[test]
+    fn long_hair_hangs_beside_the_face_not_over_it() {
+        let model = FaceModel::embedded();
+        let (mut identity, posed) = neutral("wf1");
+        identity.hair_style = HairStyle::Long;
+        let hair = HairModel::new(model, &identity, &posed.neutral);
+        let offset = eye_midpoint(model, &posed.neutral) - eye_midpoint(model, &model.rest);
+        let aligned: Vec<Vec3> = hair.positions.iter().map(|&p| p - offset).collect();
+        let over_face = aligned.iter().filter(|p| p.z > 0.9 && p.y < 7.5 && p.y > 6.3 && p.x.abs() < 0.55).count();
+        assert_eq!(over_face, 0);
+        assert!(aligned.iter().any(|p| p.y < 6.2), "long hair reaches below the chin");
+    }
+}
