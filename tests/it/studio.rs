@@ -224,7 +224,7 @@ async fn screenshots(browser: &Browser, studio: &Studio) {
     let temp = tempfile::tempdir().unwrap();
     let dir = std::env::var_os("FACSLAB_SCREENSHOTS").map(PathBuf::from).unwrap_or_else(|| temp.path().to_path_buf());
     browser.goto(&format!("{}#e=6%2B12%2B25&p=wf1&s=485x480&n=1", studio.base)).await;
-    browser.wait_for("document.getElementById('image').dataset.expression === '6+12+25' && document.getElementById('image-compare').complete", TIMEOUT).await;
+    browser.wait_for("document.getElementById('image').dataset.expression === '6+12+25' && document.getElementById('caption-compare').textContent === 'wf1: 0' && document.getElementById('image-compare').complete", TIMEOUT).await;
     for (size, width, height) in [("desktop", 1280, 900), ("phone", 390, 844)] {
         browser.set_window_size(width, height).await;
         browser.execute("document.activeElement.blur(); window.scrollTo(0, 0); document.querySelector('.controls').scrollTop = 0; return true;").await;
