@@ -66,20 +66,13 @@ enum Command {
         /// Adds the people of this identity file (same TOML as stimuli/engine/identities.toml).
         #[arg(long)]
         identities: Option<PathBuf>,
-        /// Backdrop: grey, black, #RRGGBB or transparent (an RGBA PNG, stills only).
-        #[arg(long, default_value = "grey")]
-        backdrop: crate::engine::look::Backdrop,
-        /// Lighting preset: studio, soft or dramatic.
-        #[arg(long, default_value = "studio")]
-        light: crate::engine::look::LightPreset,
-        /// Black-and-white output.
-        #[arg(long)]
-        grayscale: bool,
+        #[command(flatten)]
+        look: LookArgs,
         /// Output file: .png for a still, .mp4 for a video.
         #[arg(short, long)]
         output: PathBuf,
         /// Image size as WIDTHxHEIGHT [default: 485x480].
-        #[arg(long, value_parser = parse_size)]
+        #[arg(long, value_parser = engine::parse_size)]
         size: Option<(u32, u32)>,
         /// Rendering threads (default: all cores; the image is the same either way).
         #[arg(long)]
@@ -131,20 +124,13 @@ enum Command {
         /// Adds the people of this identity file (the emotions sheet shows them too).
         #[arg(long)]
         identities: Option<PathBuf>,
-        /// Backdrop: grey, black, #RRGGBB or transparent.
-        #[arg(long, default_value = "grey")]
-        backdrop: crate::engine::look::Backdrop,
-        /// Lighting preset: studio, soft or dramatic.
-        #[arg(long, default_value = "studio")]
-        light: crate::engine::look::LightPreset,
-        /// Black-and-white output.
-        #[arg(long)]
-        grayscale: bool,
+        #[command(flatten)]
+        look: LookArgs,
         /// Output PNG file.
         #[arg(short, long)]
         output: PathBuf,
         /// Size of each tile as WIDTHxHEIGHT.
-        #[arg(long, default_value = "242x240", value_parser = parse_size)]
+        #[arg(long, default_value = "242x240", value_parser = engine::parse_size)]
         tile: (u32, u32),
         /// Tiles per row.
         #[arg(long, default_value_t = 8)]
@@ -306,6 +292,26 @@ fn new_identity(request: &crate::engine::people::PersonRequest, output: &Path) -
     Ok(())
 }
 
+/// Backdrop, light and colour: the same options on every command that renders.
+#[derive(Debug, Clone, Copy, clap::Args)]
+struct LookArgs {
+    /// Backdrop: grey, black, #RRGGBB or transparent (an RGBA PNG, stills only).
+    #[arg(long, default_value = "grey")]
+    backdrop: crate::engine::look::Backdrop,
+    /// Lighting preset: studio, soft or dramatic.
+    #[arg(long, default_value = "studio")]
+    light: crate::engine::look::LightPreset,
+    /// Black-and-white output.
+    #[arg(long)]
+    grayscale: bool,
+}
+
+impl From<LookArgs> for Look {
+    fn from(args: LookArgs) -> Look {
+        Look { backdrop: args.backdrop, light: args.light, grayscale: args.grayscale }
+    }
+}
+
 #[derive(Clone, Copy, PartialEq, ValueEnum)]
 enum CodecArg {
     H264,
@@ -325,16 +331,6 @@ enum SheetSet {
     Aus,
     /// Every EmFACS prototype at 100 % on every identity.
     Emotions,
-}
-
-fn parse_size(text: &str) -> Result<(u32, u32), String> {
-    let bad = || format!("\"{text}\" is not a size like 485x480");
-    let (w, h) = text.split_once(['x', 'X']).ok_or_else(bad)?;
-    let (w, h) = (w.trim().parse().map_err(|_| bad())?, h.trim().parse().map_err(|_| bad())?);
-    if !(16..=4096).contains(&w) || !(16..=4096).contains(&h) {
-        return Err(format!("size {w}x{h} is out of range (each side 16..=4096)"));
-    }
-    Ok((w, h))
 }
 
 /// Runs the command line and returns the process exit code.
@@ -381,9 +377,7 @@ fn dispatch(command: Command) -> anyhow::Result<()> {
             expression,
             identity,
             identities,
-            backdrop,
-            light,
-            grayscale,
+            look,
             output,
             size,
             threads,
@@ -413,8 +407,7 @@ fn dispatch(command: Command) -> anyhow::Result<()> {
                 }
                 check_png_path(&output)?;
                 let (width, height) = size.unwrap_or(engine::DEFAULT_SIZE);
-                let look = Look { backdrop, light, grayscale };
-                let settings = FrameSettings { width, height, threads, look };
+                let settings = FrameSettings { width, height, threads, look: look.into() };
                 let frame = engine::render_frame(&expression, identity, settings)?;
                 return write_png_bytes(&frame.encode_png(), &output);
             }
@@ -444,12 +437,11 @@ fn dispatch(command: Command) -> anyhow::Result<()> {
                 }
             };
             let av1 = codec == CodecArg::Av1;
-            if backdrop == Backdrop::Transparent {
+            if look.backdrop == Backdrop::Transparent {
                 bail!("videos cannot have a transparent backdrop (use it for stills)");
             }
-            let look = Look { backdrop, light, grayscale };
             let video = VideoOutputs { export: export_timeline.as_deref(), frames: frames.as_deref(), poster: poster.as_deref(), av1 };
-            render_timeline_video(&timeline, &output, threads, look, &video)
+            render_timeline_video(&timeline, &output, threads, look.into(), &video)
         }
         Command::Stimuli(StimuliCommand::Check { spec }) => {
             let set = SetSpec::load(&spec)?;
@@ -494,14 +486,13 @@ fn dispatch(command: Command) -> anyhow::Result<()> {
             );
             Ok(())
         }
-        Command::Sheet { set, identity, identities, backdrop, light, grayscale, output, tile, columns } => {
+        Command::Sheet { set, identity, identities, look, output, tile, columns } => {
             install_identities(identities.as_deref())?;
             check_png_path(&output)?;
-            if backdrop == Backdrop::Transparent {
+            if look.backdrop == Backdrop::Transparent {
                 bail!("a contact sheet cannot have a transparent backdrop (render stills with it)");
             }
-            let look = Look { backdrop, light, grayscale };
-            let settings = FrameSettings { width: tile.0, height: tile.1, threads: None, look };
+            let settings = FrameSettings { width: tile.0, height: tile.1, threads: None, look: look.into() };
             let sheet = match set {
                 SheetSet::Aus => au_sheet(IdentityTable::active().get(&identity)?, settings, columns)?,
                 SheetSet::Emotions => emotion_sheet(settings, columns)?,

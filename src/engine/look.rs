@@ -113,6 +113,19 @@ pub struct Look {
     pub grayscale: bool,
 }
 
+impl Look {
+    /// The look named by optional backdrop and light names (absent: the defaults, grey and
+    /// studio), as set specs and the studio's render requests give them.
+    pub fn parse(backdrop: Option<&str>, light: Option<&str>, grayscale: bool) -> Result<Look, LookError> {
+        let defaults = Look::default();
+        Ok(Look {
+            backdrop: backdrop.map(str::parse).transpose()?.unwrap_or(defaults.backdrop),
+            light: light.map(str::parse).transpose()?.unwrap_or(defaults.light),
+            grayscale,
+        })
+    }
+}
+
 /// A backdrop or light name that is not known.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum LookError {

@@ -170,6 +170,18 @@ impl Scene {
     }
 }
 
+/// Parses a frame size written `WIDTHxHEIGHT` (`485x480`), each side 16..=4096 pixels (the
+/// range [`render_posed`] accepts); messages quote at most 24 characters of the text.
+pub fn parse_size(text: &str) -> Result<(u32, u32), String> {
+    let bad = || format!("\"{}\" is not a size like 485x480", text.chars().take(24).collect::<String>());
+    let (w, h) = text.split_once(['x', 'X']).ok_or_else(bad)?;
+    let (w, h): (u32, u32) = (w.trim().parse().map_err(|_| bad())?, h.trim().parse().map_err(|_| bad())?);
+    if !(16..=4096).contains(&w) || !(16..=4096).contains(&h) {
+        return Err(format!("size {w}x{h} is out of range (each side 16..=4096)"));
+    }
+    Ok((w, h))
+}
+
 /// Rasterises and shades an already posed head.
 pub fn render_posed(posed: &Posed, identity: &Identity, settings: FrameSettings) -> Result<RgbImage, EngineError> {
     let FrameSettings { width, height, threads, look } = settings;

@@ -29,7 +29,7 @@
 use serde::Deserialize;
 
 use crate::engine::identity::IdentityTable;
-use crate::engine::look::{Backdrop, LightPreset, Look};
+use crate::engine::look::{Backdrop, Look};
 use crate::engine::timeline::{ClipTiming, Timeline};
 use crate::facs::{AppraisalTable, Catalog, EmotionTable, Expression};
 
@@ -221,11 +221,7 @@ impl SetSpec {
         if raw.group.is_empty() {
             return Err(fail("spec", "no [[group]]"));
         }
-        let look = Look {
-            backdrop: raw.backdrop.as_deref().unwrap_or("grey").parse::<Backdrop>().map_err(|e| fail("spec", e.to_string()))?,
-            light: raw.light.as_deref().unwrap_or("studio").parse::<LightPreset>().map_err(|e| fail("spec", e.to_string()))?,
-            grayscale: raw.grayscale,
-        };
+        let look = Look::parse(raw.backdrop.as_deref(), raw.light.as_deref(), raw.grayscale).map_err(|e| fail("spec", e.to_string()))?;
         if look.backdrop == Backdrop::Transparent {
             if let Some(group) = raw.group.iter().find(|g| !g.video_peaks.is_empty()) {
                 return Err(fail(format!("group \"{}\"", group.name), "videos cannot have a transparent backdrop (remove video_peaks or choose another backdrop)"));

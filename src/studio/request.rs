@@ -12,7 +12,7 @@
 use serde::Deserialize;
 
 use crate::engine::identity::{Identity, IdentityTable};
-use crate::engine::look::{Backdrop, LightPreset, Look};
+use crate::engine::look::{Backdrop, Look, LookError};
 use crate::engine::timeline::{ClipTiming, Timeline};
 use crate::engine::{self, FrameSettings};
 use crate::facs::{Catalog, Expression, MAX_NOTATION_LEN};
@@ -141,9 +141,13 @@ pub enum Job {
 
 /// The look a request asks for, as `facslab render --backdrop --light --grayscale` reads it.
 fn look(backdrop: Option<&str>, light: Option<&str>, grayscale: bool) -> Result<Look, RequestError> {
-    let backdrop = backdrop.unwrap_or("grey").parse::<Backdrop>().map_err(|e| RequestError::field("backdrop", excerpt(&e.to_string(), 120)))?;
-    let light = light.unwrap_or("studio").parse::<LightPreset>().map_err(|e| RequestError::field("light", excerpt(&e.to_string(), 120)))?;
-    Ok(Look { backdrop, light, grayscale })
+    Look::parse(backdrop, light, grayscale).map_err(|e| {
+        let field = match e {
+            LookError::Backdrop(_) => "backdrop",
+            LookError::Light(_) => "light",
+        };
+        RequestError::field(field, excerpt(&e.to_string(), 120))
+    })
 }
 
 fn frame_of(timeline: &Timeline, frame: usize, look: Look) -> Result<Job, RequestError> {
@@ -176,12 +180,10 @@ pub fn parse_expression(text: &str) -> Result<Expression, RequestError> {
     Catalog::built_in().parse(text).map_err(|e| RequestError::Notation { token: excerpt(&e.token, 24), column: e.column, message: e.kind.to_string() })
 }
 
-/// Parses `WIDTHxHEIGHT` with each side in 16..=[`MAX_SIDE`].
+/// Parses `WIDTHxHEIGHT` as `facslab render --size` does, then holds each side to [`MAX_SIDE`].
 pub fn parse_size(text: &str) -> Result<(u32, u32), RequestError> {
-    let bad = || RequestError::field("size", format!("\"{}\" is not a size like 485x480", excerpt(text, 24)));
-    let (w, h) = text.split_once(['x', 'X']).ok_or_else(bad)?;
-    let (w, h): (u32, u32) = (w.trim().parse().map_err(|_| bad())?, h.trim().parse().map_err(|_| bad())?);
-    if !(16..=MAX_SIDE).contains(&w) || !(16..=MAX_SIDE).contains(&h) {
+    let (w, h) = engine::parse_size(text).map_err(|message| RequestError::field("size", message))?;
+    if w > MAX_SIDE || h > MAX_SIDE {
         return Err(RequestError::field("size", format!("{w}x{h} is out of range (each side 16..={MAX_SIDE})")));
     }
     Ok((w, h))
