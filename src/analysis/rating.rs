@@ -29,7 +29,7 @@ use serde::Serialize;
 use super::coding::Maybe;
 use super::input::FxHashMap;
 use super::manifest::{Manifest, Media};
-use super::responses::{Responses, Scale};
+use super::responses::{EmotionAnswer, Rating, Responses, Scale};
 use super::stats::anova::{AnovaTable, SsType, TwoWayCells, two_way_cells};
 use super::stats::binomial::{Alternative, binomial_test};
 use super::stats::classification::ConfusionMatrix;
@@ -223,83 +223,108 @@ fn published() -> Vec<(String, String, u32, f64, f64)> {
         .collect()
 }
 
-/// Computes the rater section; `None` when there are no emotion answers and no ratings.
-pub fn analyze(manifest: &Manifest, responses: &Responses) -> Option<RatingReport> {
-    if responses.emotions.is_empty() && responses.ratings.is_empty() {
-        return None;
-    }
-    let labels = display_labels(responses);
-    let to_display: Vec<usize> = responses.emotion_labels.iter().map(|l| labels.iter().position(|x| x == l).expect("label")).collect();
-    // Per stimulus, looked up once: its shown label (display index) and its condition.
-    let stim_labels: Vec<Option<usize>> = manifest
-        .stimuli
-        .iter()
-        .map(|st| {
-            let e = st.emotion.as_deref()?;
-            labels.iter().position(|l| l == e)
-        })
-        .collect();
-    let stim_label = |s: usize| -> Option<usize> { stim_labels[s] };
-    let stim_conds: Vec<CondKey> = manifest.stimuli.iter().map(|st| (st.media, st.intensity_percent())).collect();
-    let cond_of = |s: usize| -> CondKey { stim_conds[s] };
+/// What every part of the rater section looks up: the label order and, per stimulus, its shown
+/// label and condition (computed once).
+struct Context<'a> {
+    manifest: &'a Manifest,
+    responses: &'a Responses,
+    /// Display order of the labels.
+    labels: Vec<String>,
+    /// Response label index → display index.
+    to_display: Vec<usize>,
+    /// Per stimulus: the display index of the emotion it portrays.
+    stim_labels: Vec<Option<usize>>,
+    stim_conds: Vec<CondKey>,
+    scales_present: BTreeSet<Scale>,
+}
 
-    let mut used = vec![false; manifest.len()];
-    for s in responses.emotions.iter().map(|e| e.stimulus).chain(responses.ratings.iter().map(|r| r.stimulus)) {
-        used[s] = true;
+impl Context<'_> {
+    fn stim_label(&self, s: usize) -> Option<usize> {
+        self.stim_labels[s]
     }
-    let cond_keys: BTreeSet<CondKey> = (0..manifest.len()).filter(|&s| used[s]).map(cond_of).collect();
-    // Videos first, then higher intensities first (the seed's table order).
-    let mut cond_keys: Vec<CondKey> = cond_keys.into_iter().collect();
-    cond_keys.sort_by(|a, b| b.0.cmp(&a.0).then(b.1.cmp(&a.1)));
-    let groups: Vec<usize> = (0..responses.groups.len()).collect();
-    let scales_present: BTreeSet<Scale> = responses.ratings.iter().map(|r| r.scale).collect();
 
-    // Answers and ratings split by condition in one pass each, keeping file order.
-    let stim_cond_index: Vec<usize> = (0..manifest.len()).map(|s| cond_keys.iter().position(|k| *k == cond_of(s)).unwrap_or(usize::MAX)).collect();
-    let mut answers_by_cond: Vec<Vec<&super::responses::EmotionAnswer>> = vec![Vec::new(); cond_keys.len()];
-    for e in &responses.emotions {
-        answers_by_cond[stim_cond_index[e.stimulus]].push(e);
+    fn n_participants(&self) -> usize {
+        self.responses.participants.len()
     }
-    let mut ratings_by_cond: Vec<Vec<&super::responses::Rating>> = vec![Vec::new(); cond_keys.len()];
-    for r in &responses.ratings {
-        ratings_by_cond[stim_cond_index[r.stimulus]].push(r);
-    }
-    let n_participants = responses.participants.len();
 
-    let mut conditions = Vec::new();
-    let mut group_tests = Vec::new();
-    for (ci, &key) in cond_keys.iter().enumerate() {
-        let stimuli: Vec<usize> = (0..manifest.len()).filter(|&s| cond_of(s) == key).collect();
-        let answers = std::mem::take(&mut answers_by_cond[ci]);
-        let ratings = std::mem::take(&mut ratings_by_cond[ci]);
-        let participants: Vec<usize> = {
-            let mut here = vec![false; n_participants];
-            for p in answers.iter().map(|e| e.participant).chain(ratings.iter().map(|r| r.participant)) {
-                here[p] = true;
-            }
-            (0..n_participants).filter(|&p| here[p]).collect()
-        };
-
-        // Confusion over the full label set (square), rows restricted to shown emotions for display.
-        let mut counts = vec![vec![0u64; labels.len()]; labels.len()];
-        // Answers to stimuli that portray no emotion (empty `emotion` in the manifest) have no
-        // row to go in: they are left out of the confusion matrix.
-        for e in &answers {
-            if let Some(t) = stim_label(e.stimulus) {
-                counts[t][to_display[e.label]] += 1;
-            }
+    /// The conditions with any answer or rating: videos first, then higher intensities first
+    /// (the seed's table order).
+    fn condition_keys(&self) -> Vec<CondKey> {
+        let mut used = vec![false; self.manifest.len()];
+        for s in self.responses.emotions.iter().map(|e| e.stimulus).chain(self.responses.ratings.iter().map(|r| r.stimulus)) {
+            used[s] = true;
         }
-        let cm = ConfusionMatrix::from_counts(labels.clone(), counts.clone()).expect("square by construction");
-        let hu = unbiased_hit_rates(&cm);
-        let shown: Vec<usize> = (0..labels.len()).filter(|&t| cm.row_sum(t) > 0).collect();
-        let mut emotions = Vec::new();
-        for &t in &shown {
-            let n = cm.row_sum(t);
-            let hits = counts[t][t];
-            let b = binomial_test(hits, n, 1.0 / labels.len() as f64, Alternative::Greater, 0.95).expect("n > 0");
-            emotions.push(EmotionRow {
-                emotion: labels[t].clone(),
-                stimuli: stimuli.iter().filter(|&&s| stim_label(s) == Some(t)).count(),
+        let keys: BTreeSet<CondKey> = (0..self.manifest.len()).filter(|&s| used[s]).map(|s| self.stim_conds[s]).collect();
+        let mut keys: Vec<CondKey> = keys.into_iter().collect();
+        keys.sort_by(|a, b| b.0.cmp(&a.0).then(b.1.cmp(&a.1)));
+        keys
+    }
+}
+
+/// The answers and ratings of one condition, in file order.
+struct ConditionData<'r> {
+    key: CondKey,
+    stimuli: Vec<usize>,
+    participants: Vec<usize>,
+    answers: Vec<&'r EmotionAnswer>,
+    ratings: Vec<&'r Rating>,
+}
+
+/// Splits the answers and ratings by condition in one pass each, keeping file order.
+fn split_by_condition<'r>(ctx: &Context<'r>, keys: &[CondKey]) -> Vec<ConditionData<'r>> {
+    let stim_cond_index: Vec<usize> = ctx.stim_conds.iter().map(|c| keys.iter().position(|k| k == c).unwrap_or(usize::MAX)).collect();
+    let mut data: Vec<ConditionData<'r>> = keys
+        .iter()
+        .map(|&key| ConditionData { key, stimuli: (0..ctx.manifest.len()).filter(|&s| ctx.stim_conds[s] == key).collect(), participants: Vec::new(), answers: Vec::new(), ratings: Vec::new() })
+        .collect();
+    for e in &ctx.responses.emotions {
+        data[stim_cond_index[e.stimulus]].answers.push(e);
+    }
+    for r in &ctx.responses.ratings {
+        data[stim_cond_index[r.stimulus]].ratings.push(r);
+    }
+    for d in &mut data {
+        let mut here = vec![false; ctx.n_participants()];
+        for p in d.answers.iter().map(|e| e.participant).chain(d.ratings.iter().map(|r| r.participant)) {
+            here[p] = true;
+        }
+        d.participants = (0..ctx.n_participants()).filter(|&p| here[p]).collect();
+    }
+    data
+}
+
+/// Recognition in one condition: the confusion matrix and a row per shown emotion.
+struct Recognition {
+    confusion: Option<Confusion>,
+    emotions: Vec<EmotionRow>,
+    /// Display indices of the emotions shown.
+    shown: Vec<usize>,
+    total: u64,
+    hits: u64,
+}
+
+fn recognition(ctx: &Context<'_>, d: &ConditionData<'_>) -> Recognition {
+    let n_labels = ctx.labels.len();
+    // Confusion over the full label set (square), rows restricted to shown emotions for display.
+    // Answers to stimuli that portray no emotion (empty `emotion` in the manifest) have no row
+    // to go in: they are left out of the confusion matrix.
+    let mut counts = vec![vec![0u64; n_labels]; n_labels];
+    for e in &d.answers {
+        if let Some(t) = ctx.stim_label(e.stimulus) {
+            counts[t][ctx.to_display[e.label]] += 1;
+        }
+    }
+    let cm = ConfusionMatrix::from_counts(ctx.labels.clone(), counts.clone()).expect("square by construction");
+    let hu = unbiased_hit_rates(&cm);
+    let shown: Vec<usize> = (0..n_labels).filter(|&t| cm.row_sum(t) > 0).collect();
+    let emotions = shown
+        .iter()
+        .map(|&t| {
+            let (n, hits) = (cm.row_sum(t), counts[t][t]);
+            let b = binomial_test(hits, n, 1.0 / n_labels as f64, Alternative::Greater, 0.95).expect("n > 0");
+            EmotionRow {
+                emotion: ctx.labels[t].clone(),
+                stimuli: d.stimuli.iter().filter(|&&s| ctx.stim_label(s) == Some(t)).count(),
                 answers: n,
                 hits,
                 rate: hits as f64 / n as f64,
@@ -307,225 +332,247 @@ pub fn analyze(manifest: &Manifest, responses: &Responses) -> Option<RatingRepor
                 hu_chance: hu[t].chance,
                 binomial_p: b.p_value,
                 rate_ci95: b.ci,
-            });
-        }
-        let confusion = (!shown.is_empty()).then(|| Confusion {
-            rows: shown.iter().map(|&t| labels[t].clone()).collect(),
-            columns: labels.clone(),
-            counts: shown.iter().map(|&t| counts[t].clone()).collect(),
-            percent: shown
-                .iter()
-                .map(|&t| {
-                    let n = cm.row_sum(t) as f64;
-                    counts[t].iter().map(|&c| 100.0 * c as f64 / n).collect()
-                })
-                .collect(),
-        });
-        let total: u64 = shown.iter().map(|&t| cm.row_sum(t)).sum();
-        let hits: u64 = shown.iter().map(|&t| counts[t][t]).sum();
-        let average_rate = (!emotions.is_empty()).then(|| emotions.iter().map(|e| e.rate).sum::<f64>() / emotions.len() as f64);
+            }
+        })
+        .collect();
+    let confusion = (!shown.is_empty()).then(|| Confusion {
+        rows: shown.iter().map(|&t| ctx.labels[t].clone()).collect(),
+        columns: ctx.labels.clone(),
+        counts: shown.iter().map(|&t| counts[t].clone()).collect(),
+        percent: shown.iter().map(|&t| counts[t].iter().map(|&c| 100.0 * c as f64 / cm.row_sum(t) as f64).collect()).collect(),
+    });
+    let total: u64 = shown.iter().map(|&t| cm.row_sum(t)).sum();
+    let hits: u64 = shown.iter().map(|&t| counts[t][t]).sum();
+    Recognition { confusion, emotions, shown, total, hits }
+}
 
-        // Ratings per scale.
-        let mut scales = Vec::new();
-        for &scale in &scales_present {
-            let these: Vec<_> = ratings.iter().filter(|r| r.scale == scale).collect();
-            if these.is_empty() {
-                continue;
-            }
-            // value[(participant, stimulus)]
-            let key_of = |p: usize, s: usize| (p as u64) * manifest.len() as u64 + s as u64;
-            let mut value: FxHashMap<u64, f64> = FxHashMap::default();
-            value.reserve(these.len());
-            let mut is_rater = vec![false; n_participants];
-            let mut is_rated = vec![false; manifest.len()];
-            // Values per shown label, in file order.
-            let mut by_label: Vec<Vec<f64>> = vec![Vec::new(); labels.len()];
-            for r in &these {
-                value.insert(key_of(r.participant, r.stimulus), r.value);
-                is_rater[r.participant] = true;
-                is_rated[r.stimulus] = true;
-                if let Some(t) = stim_label(r.stimulus) {
-                    by_label[t].push(r.value);
-                }
-            }
-            let raters: Vec<usize> = (0..n_participants).filter(|&p| is_rater[p]).collect();
-            let alpha_of = |cases: &[usize]| -> (Maybe, usize, usize) {
-                let items: Vec<usize> = raters.iter().copied().filter(|&p| cases.iter().all(|&s| value.contains_key(&key_of(p, s)))).collect();
-                let rows: Vec<Vec<f64>> = cases.iter().map(|&s| items.iter().map(|&p| value[&key_of(p, s)]).collect()).collect();
-                (Maybe::of(cronbach_alpha(&rows, 0.95).map(|a| a.alpha)), cases.len(), items.len())
-            };
-            let rated: Vec<usize> = stimuli.iter().copied().filter(|&s| is_rated[s]).collect();
-            let (alpha, alpha_cases, alpha_items) = alpha_of(&rated);
-            let mut cells = Vec::new();
-            for t in 0..labels.len() {
-                let cases: Vec<usize> = rated.iter().copied().filter(|&s| stim_label(s) == Some(t)).collect();
-                if cases.is_empty() {
-                    continue;
-                }
-                let vals = &by_label[t];
-                let (alpha, alpha_cases, alpha_items) = alpha_of(&cases);
-                cells.push(ScaleCell { emotion: labels[t].clone(), stats: describe(vals), alpha, alpha_cases, alpha_items });
-            }
-            let all: Vec<f64> = these.iter().map(|r| r.value).collect();
-            scales.push(ScaleSummary { scale, overall: describe(&all), alpha, alpha_cases, alpha_items, cells });
+/// One scale's ratings in one condition: overall, per shown emotion, and Cronbach's α.
+fn scale_summary(ctx: &Context<'_>, d: &ConditionData<'_>, scale: Scale) -> Option<ScaleSummary> {
+    let these: Vec<&Rating> = d.ratings.iter().copied().filter(|r| r.scale == scale).collect();
+    if these.is_empty() {
+        return None;
+    }
+    let n_stimuli = ctx.manifest.len() as u64;
+    let key_of = |p: usize, s: usize| (p as u64) * n_stimuli + s as u64;
+    // value[(participant, stimulus)], and the values per shown label in file order.
+    let mut value: FxHashMap<u64, f64> = FxHashMap::default();
+    value.reserve(these.len());
+    let (mut is_rater, mut is_rated) = (vec![false; ctx.n_participants()], vec![false; ctx.manifest.len()]);
+    let mut by_label: Vec<Vec<f64>> = vec![Vec::new(); ctx.labels.len()];
+    for r in &these {
+        value.insert(key_of(r.participant, r.stimulus), r.value);
+        is_rater[r.participant] = true;
+        is_rated[r.stimulus] = true;
+        if let Some(t) = ctx.stim_label(r.stimulus) {
+            by_label[t].push(r.value);
         }
+    }
+    let raters: Vec<usize> = (0..ctx.n_participants()).filter(|&p| is_rater[p]).collect();
+    let alpha_of = |cases: &[usize]| -> (Maybe, usize, usize) {
+        let items: Vec<usize> = raters.iter().copied().filter(|&p| cases.iter().all(|&s| value.contains_key(&key_of(p, s)))).collect();
+        let rows: Vec<Vec<f64>> = cases.iter().map(|&s| items.iter().map(|&p| value[&key_of(p, s)]).collect()).collect();
+        (Maybe::of(cronbach_alpha(&rows, 0.95).map(|a| a.alpha)), cases.len(), items.len())
+    };
+    let rated: Vec<usize> = d.stimuli.iter().copied().filter(|&s| is_rated[s]).collect();
+    let (alpha, alpha_cases, alpha_items) = alpha_of(&rated);
+    let cells = (0..ctx.labels.len())
+        .filter_map(|t| {
+            let cases: Vec<usize> = rated.iter().copied().filter(|&s| ctx.stim_label(s) == Some(t)).collect();
+            if cases.is_empty() {
+                return None;
+            }
+            let (alpha, alpha_cases, alpha_items) = alpha_of(&cases);
+            Some(ScaleCell { emotion: ctx.labels[t].clone(), stats: describe(&by_label[t]), alpha, alpha_cases, alpha_items })
+        })
+        .collect();
+    let all: Vec<f64> = these.iter().map(|r| r.value).collect();
+    Some(ScaleSummary { scale, overall: describe(&all), alpha, alpha_cases, alpha_items, cells })
+}
 
-        // Group comparisons within the condition, from per-participant tallies:
-        // per_participant[p][shown label] = (hits, answers); belv_sum[p] = (sum, n).
-        let mut per_participant: Vec<Option<Vec<(u64, u64)>>> = vec![None; n_participants];
-        for e in &answers {
-            if let Some(t) = stim_label(e.stimulus) {
-                let v = per_participant[e.participant].get_or_insert_with(|| vec![(0, 0); labels.len()]);
+/// Per-participant tallies of one condition: hits and answers per shown label, and the sum and
+/// count of believability ratings.
+struct Tallies {
+    per_participant: Vec<Option<Vec<(u64, u64)>>>,
+    believability: Vec<Option<(f64, u64)>>,
+}
+
+impl Tallies {
+    fn new(ctx: &Context<'_>, d: &ConditionData<'_>) -> Tallies {
+        let mut per_participant: Vec<Option<Vec<(u64, u64)>>> = vec![None; ctx.n_participants()];
+        for e in &d.answers {
+            if let Some(t) = ctx.stim_label(e.stimulus) {
+                let v = per_participant[e.participant].get_or_insert_with(|| vec![(0, 0); ctx.labels.len()]);
                 v[t].1 += 1;
-                if to_display[e.label] == t {
+                if ctx.to_display[e.label] == t {
                     v[t].0 += 1;
                 }
             }
         }
-        let mut belv_sum: Vec<Option<(f64, u64)>> = vec![None; n_participants];
-        for r in ratings.iter().filter(|r| r.scale == Scale::Believability) {
-            let v = belv_sum[r.participant].get_or_insert_default();
+        let mut believability: Vec<Option<(f64, u64)>> = vec![None; ctx.n_participants()];
+        for r in d.ratings.iter().filter(|r| r.scale == Scale::Believability) {
+            let v = believability[r.participant].get_or_insert_default();
             v.0 += r.value;
             v.1 += 1;
         }
-        for (i, &ga) in groups.iter().enumerate() {
-            for &gb in &groups[i + 1..] {
-                let in_group = |g: usize| -> Vec<usize> { participants.iter().copied().filter(|&p| responses.participants[p].group == g).collect() };
-                let (pa, pb) = (in_group(ga), in_group(gb));
-                if pa.is_empty() || pb.is_empty() {
-                    continue;
-                }
-                let correct_rate = |p: usize, t: Option<usize>| -> Option<f64> {
-                    let (hits, n) = match t {
-                        None => per_participant[p].as_ref().map(|v| v.iter().fold((0, 0), |acc, x| (acc.0 + x.0, acc.1 + x.1)))?,
-                        Some(t) => per_participant[p].as_ref()?[t],
-                    };
-                    (n > 0).then(|| hits as f64 / n as f64)
-                };
-                let mut push = |emotion: String, outcome: &str, a: Vec<f64>, b: Vec<f64>| {
-                    if a.is_empty() || b.is_empty() {
-                        return;
-                    }
-                    let (student, welch) = ttests(&a, &b);
-                    group_tests.push(GroupTest {
-                        condition: cond_name(key),
-                        emotion,
-                        outcome: outcome.into(),
-                        group_a: responses.groups[ga].clone(),
-                        group_b: responses.groups[gb].clone(),
-                        a: describe(&a),
-                        b: describe(&b),
-                        student,
-                        welch,
-                    });
-                };
-                let rec = |ps: &[usize], t: Option<usize>| -> Vec<f64> { ps.iter().filter_map(|&p| correct_rate(p, t)).collect() };
-                if !answers.is_empty() {
-                    push("all".into(), "recognition (proportion correct)", rec(&pa, None), rec(&pb, None));
-                }
-                let mean_belv = |ps: &[usize]| -> Vec<f64> {
-                    ps.iter().filter_map(|&p| belv_sum[p].map(|(sum, n)| sum / n as f64)).collect()
-                };
-                if scales_present.contains(&Scale::Believability) {
-                    push("all".into(), "believability (participant mean)", mean_belv(&pa), mean_belv(&pb));
-                }
-                for &t in &shown {
-                    push(labels[t].clone(), "recognition (proportion correct)", rec(&pa, Some(t)), rec(&pb, Some(t)));
-                }
-            }
-        }
-
-        conditions.push(Condition {
-            key: cond_name(key),
-            media: key.0,
-            intensity_percent: key.1,
-            stimuli: stimuli.len(),
-            participants: participants.len(),
-            answers: total,
-            confusion,
-            emotions,
-            average_rate,
-            accuracy: (total > 0).then(|| hits as f64 / total as f64),
-            scales,
-        });
+        Tallies { per_participant, believability }
     }
 
-    // Two-way ANOVA per media: emotion × intensity.
-    let mut anova = Vec::new();
-    for media in [Media::Video, Media::Image] {
-        let mut fit = |outcome: &str, cells: TwoWayCells| {
-            if cells.n() == 0 {
-                return;
-            }
-            let run = |t| Outcome::from(two_way_cells(&cells, t)).map(|table| named_terms(table, "emotion", "intensity"));
-            anova.push(Anova { media, outcome: outcome.into(), a: "emotion", b: "intensity", n: cells.n(), type_ii: run(SsType::II), type_iii: run(SsType::III) });
+    /// Proportion correct of participant `p`, over all shown labels or for label `t`.
+    fn correct_rate(&self, p: usize, t: Option<usize>) -> Option<f64> {
+        let (hits, n) = match t {
+            None => self.per_participant[p].as_ref().map(|v| v.iter().fold((0, 0), |acc, x| (acc.0 + x.0, acc.1 + x.1)))?,
+            Some(t) => self.per_participant[p].as_ref()?[t],
         };
-        // Factor levels: the labels and the intensities (in whole percent) of the stimuli.
-        let intensities: Vec<u32> = {
-            let mut v: Vec<u32> = manifest.stimuli.iter().map(|s| s.intensity_percent()).collect();
-            v.sort_unstable();
-            v.dedup();
-            v
-        };
-        let intensity_names: Vec<String> = intensities.iter().map(|i| format!("{i}%")).collect();
-        let level_of: Vec<Option<(usize, usize)>> = (0..manifest.len())
-            .map(|s| {
-                let st = &manifest.stimuli[s];
-                let t = stim_label(s).filter(|_| st.media == media)?;
-                Some((t, intensities.binary_search(&st.intensity_percent()).expect("listed above")))
-            })
-            .collect();
-        let mut cells = TwoWayCells::with_levels(labels.clone(), intensity_names.clone());
-        for e in &responses.emotions {
-            if let Some((t, i)) = level_of[e.stimulus] {
-                cells.add(t, i, if t == to_display[e.label] { 1.0 } else { 0.0 });
-            }
-        }
-        fit("recognition", cells);
-        let mut cells = TwoWayCells::with_levels(labels.clone(), intensity_names);
-        for r in responses.ratings.iter().filter(|r| r.scale == Scale::Believability) {
-            if let Some((t, i)) = level_of[r.stimulus] {
-                cells.add(t, i, r.value);
-            }
-        }
-        fit("believability", cells);
+        (n > 0).then(|| hits as f64 / n as f64)
     }
 
-    // Table 14: this study's image conditions beside the published figures.
-    let mut table14 = Vec::new();
+    fn recognition(&self, ps: &[usize], t: Option<usize>) -> Vec<f64> {
+        ps.iter().filter_map(|&p| self.correct_rate(p, t)).collect()
+    }
+
+    fn mean_believability(&self, ps: &[usize]) -> Vec<f64> {
+        ps.iter().filter_map(|&p| self.believability[p].map(|(sum, n)| sum / n as f64)).collect()
+    }
+}
+
+/// The t-tests between every pair of groups within one condition.
+fn group_tests(ctx: &Context<'_>, d: &ConditionData<'_>, shown: &[usize]) -> Vec<GroupTest> {
+    let tallies = Tallies::new(ctx, d);
+    let groups = &ctx.responses.groups;
+    let in_group = |g: usize| -> Vec<usize> { d.participants.iter().copied().filter(|&p| ctx.responses.participants[p].group == g).collect() };
+    let mut out = Vec::new();
+    for ga in 0..groups.len() {
+        for gb in ga + 1..groups.len() {
+            let (pa, pb) = (in_group(ga), in_group(gb));
+            if pa.is_empty() || pb.is_empty() {
+                continue;
+            }
+            let mut push = |emotion: String, outcome: &str, a: Vec<f64>, b: Vec<f64>| {
+                if a.is_empty() || b.is_empty() {
+                    return;
+                }
+                let (student, welch) = ttests(&a, &b);
+                let (group_a, group_b) = (groups[ga].clone(), groups[gb].clone());
+                out.push(GroupTest { condition: cond_name(d.key), emotion, outcome: outcome.into(), group_a, group_b, a: describe(&a), b: describe(&b), student, welch });
+            };
+            if !d.answers.is_empty() {
+                push("all".into(), "recognition (proportion correct)", tallies.recognition(&pa, None), tallies.recognition(&pb, None));
+            }
+            if ctx.scales_present.contains(&Scale::Believability) {
+                push("all".into(), "believability (participant mean)", tallies.mean_believability(&pa), tallies.mean_believability(&pb));
+            }
+            for &t in shown {
+                push(ctx.labels[t].clone(), "recognition (proportion correct)", tallies.recognition(&pa, Some(t)), tallies.recognition(&pb, Some(t)));
+            }
+        }
+    }
+    out
+}
+
+/// One condition's row of Tables 7–13.
+fn condition(ctx: &Context<'_>, d: &ConditionData<'_>, recognition: Recognition) -> Condition {
+    let Recognition { confusion, emotions, total, hits, .. } = recognition;
+    let average_rate = (!emotions.is_empty()).then(|| emotions.iter().map(|e| e.rate).sum::<f64>() / emotions.len() as f64);
+    Condition {
+        key: cond_name(d.key),
+        media: d.key.0,
+        intensity_percent: d.key.1,
+        stimuli: d.stimuli.len(),
+        participants: d.participants.len(),
+        answers: total,
+        confusion,
+        emotions,
+        average_rate,
+        accuracy: (total > 0).then(|| hits as f64 / total as f64),
+        scales: ctx.scales_present.iter().filter_map(|&scale| scale_summary(ctx, d, scale)).collect(),
+    }
+}
+
+/// Two-way ANOVAs (emotion × intensity) of recognition and believability within `media`.
+fn anovas(ctx: &Context<'_>, media: Media, out: &mut Vec<Anova>) {
+    let manifest = ctx.manifest;
+    // Factor levels: the labels and the intensities (in whole percent) of the stimuli.
+    let mut intensities: Vec<u32> = manifest.stimuli.iter().map(|s| s.intensity_percent()).collect();
+    intensities.sort_unstable();
+    intensities.dedup();
+    let intensity_names: Vec<String> = intensities.iter().map(|i| format!("{i}%")).collect();
+    let level_of: Vec<Option<(usize, usize)>> = (0..manifest.len())
+        .map(|s| {
+            let st = &manifest.stimuli[s];
+            let t = ctx.stim_label(s).filter(|_| st.media == media)?;
+            Some((t, intensities.binary_search(&st.intensity_percent()).expect("listed above")))
+        })
+        .collect();
+    let mut fit = |outcome: &str, cells: TwoWayCells| {
+        if cells.n() == 0 {
+            return;
+        }
+        let run = |t| Outcome::from(two_way_cells(&cells, t)).map(|table| named_terms(table, "emotion", "intensity"));
+        out.push(Anova { media, outcome: outcome.into(), a: "emotion", b: "intensity", n: cells.n(), type_ii: run(SsType::II), type_iii: run(SsType::III) });
+    };
+    let mut cells = TwoWayCells::with_levels(ctx.labels.clone(), intensity_names.clone());
+    for e in &ctx.responses.emotions {
+        if let Some((t, i)) = level_of[e.stimulus] {
+            cells.add(t, i, if t == ctx.to_display[e.label] { 1.0 } else { 0.0 });
+        }
+    }
+    fit("recognition", cells);
+    let mut cells = TwoWayCells::with_levels(ctx.labels.clone(), intensity_names);
+    for r in ctx.responses.ratings.iter().filter(|r| r.scale == Scale::Believability) {
+        if let Some((t, i)) = level_of[r.stimulus] {
+            cells.add(t, i, r.value);
+        }
+    }
+    fit("believability", cells);
+}
+
+/// Table 14: this study's image conditions beside the published figures.
+fn table14(conditions: &[Condition]) -> Vec<ComparisonRow> {
     let pubs = published();
+    let mut rows = Vec::new();
     for c in conditions.iter().filter(|c| c.media == Media::Image) {
         for e in &c.emotions {
-            let belv = c
+            let believability = c
                 .scales
                 .iter()
                 .find(|s| s.scale == Scale::Believability)
                 .and_then(|s| s.cells.iter().find(|x| x.emotion == e.emotion))
                 .and_then(|x| x.stats.as_ref().map(|d| d.mean));
-            let published = pubs
-                .iter()
-                .filter(|p| p.0 == e.emotion && p.2 == c.intensity_percent)
-                .map(|p| (p.1.clone(), (p.3, p.4)))
-                .collect();
-            table14.push(ComparisonRow {
-                emotion: e.emotion.clone(),
-                intensity_percent: c.intensity_percent,
-                recognition_percent: Some(100.0 * e.rate),
-                believability: belv,
-                published,
-            });
+            let published = pubs.iter().filter(|p| p.0 == e.emotion && p.2 == c.intensity_percent).map(|p| (p.1.clone(), (p.3, p.4))).collect();
+            rows.push(ComparisonRow { emotion: e.emotion.clone(), intensity_percent: c.intensity_percent, recognition_percent: Some(100.0 * e.rate), believability, published });
         }
     }
+    rows
+}
 
-    Some(RatingReport {
-        convention: CONVENTION.to_string(),
-        chance: 1.0 / labels.len() as f64,
+/// Computes the rater section; `None` when there are no emotion answers and no ratings.
+pub fn analyze(manifest: &Manifest, responses: &Responses) -> Option<RatingReport> {
+    if responses.emotions.is_empty() && responses.ratings.is_empty() {
+        return None;
+    }
+    let labels = display_labels(responses);
+    let ctx = Context {
+        manifest,
+        responses,
+        to_display: responses.emotion_labels.iter().map(|l| labels.iter().position(|x| x == l).expect("label")).collect(),
+        stim_labels: manifest.stimuli.iter().map(|st| labels.iter().position(|l| Some(l.as_str()) == st.emotion.as_deref())).collect(),
+        stim_conds: manifest.stimuli.iter().map(|st| (st.media, st.intensity_percent())).collect(),
+        scales_present: responses.ratings.iter().map(|r| r.scale).collect(),
         labels,
-        conditions,
-        group_tests,
-        anova,
-        table14,
-    })
+    };
+    let mut conditions = Vec::new();
+    let mut tests = Vec::new();
+    for d in split_by_condition(&ctx, &ctx.condition_keys()) {
+        let recognition = recognition(&ctx, &d);
+        tests.extend(group_tests(&ctx, &d, &recognition.shown));
+        conditions.push(condition(&ctx, &d, recognition));
+    }
+    let mut anova = Vec::new();
+    for media in [Media::Video, Media::Image] {
+        anovas(&ctx, media, &mut anova);
+    }
+    let table14 = table14(&conditions);
+    Some(RatingReport { convention: CONVENTION.to_string(), chance: 1.0 / ctx.labels.len() as f64, labels: ctx.labels, conditions, group_tests: tests, anova, table14 })
 }
 
 #[cfg(test)]

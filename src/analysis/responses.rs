@@ -1,60 +1,23 @@
 //! Responses in the long format (design.md §3), read and validated against the manifest.
 //!
 //! Header: `participant_id,group,stimulus_id,trial,measure,value,rt_ms` (found by name; extra
-//! columns are ignored). One row per judgement:
-//!
-//! | measure | value | stimulus_id |
-//! |---|---|---|
-//! | `aus` | FACS notation of the AUs a coder marked; empty or `0` = none | required |
-//! | `emotion` | an EmFACS label, `none` or `neutral` | required |
-//! | `believability` | integer Likert 1–5 | required |
-//! | `description_match` | integer 0–5 | required |
-//! | `q1`, `q2` | integer 0–5 (seed 004: 0 = very little … 5 = very much) | required |
-//! | `age` | years (number in 0–120) | empty |
-//! | `gender`, `ethnicity`, `education` | free text (compared case-insensitively) | empty |
+//! columns are ignored). One row per judgement; the measures, their values and whether a row is
+//! about a stimulus or about the participant (`stimulus_id` empty) are those declared in
+//! [`crate::study::measure`]. Free-text demographics are compared case-insensitively.
 //!
 //! Policies: `group` must not be empty and must be the same on every row of a participant; a
 //! (participant, stimulus, measure) judgement may appear once; a missing judgement is a missing
 //! row (never an empty Likert cell). Validation covers the whole file before anything is used.
 
-use std::collections::HashMap;
 use std::path::Path;
 
 use super::input::{Fields, FxHashMap, InputError, Place, TableInput};
 use super::manifest::Manifest;
+use crate::stimuli::manifest::csv_field;
 use crate::facs::{Catalog, EmotionTable, Expression};
+use crate::study::measure::{About, DECLARATIONS, Demographic, LabelSet, Measure, Value};
 
-/// The numeric rating measures and their allowed integer ranges.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Scale {
-    Believability,
-    DescriptionMatch,
-    Q1,
-    Q2,
-}
-
-impl Scale {
-    pub const ALL: [Scale; 4] = [Scale::Believability, Scale::DescriptionMatch, Scale::Q1, Scale::Q2];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Scale::Believability => "believability",
-            Scale::DescriptionMatch => "description_match",
-            Scale::Q1 => "q1",
-            Scale::Q2 => "q2",
-        }
-    }
-
-    /// Inclusive integer range.
-    pub fn range(self) -> (u8, u8) {
-        match self {
-            Scale::Believability => (1, 5),
-            Scale::DescriptionMatch => (0, 5),
-            Scale::Q1 | Scale::Q2 => (0, 5),
-        }
-    }
-}
+pub use crate::study::measure::Scale;
 
 /// A participant (coder or rater) and their demographics.
 #[derive(Debug, Clone, Default)]
@@ -99,7 +62,7 @@ pub struct Rating {
 pub struct Responses {
     pub participants: Vec<Participant>,
     pub groups: Vec<String>,
-    /// The answer options of the emotion task: the EmFACS labels in table order, then `none`.
+    /// The answer options of the emotion task: [`LabelSet::Emotion`]'s labels.
     pub emotion_labels: Vec<String>,
     pub aus: Vec<AuAnswer>,
     pub emotions: Vec<EmotionAnswer>,
@@ -108,39 +71,41 @@ pub struct Responses {
     pub rows: u64,
 }
 
-#[derive(Clone, Copy, PartialEq, Eq, Hash)]
-enum Measure {
-    Aus,
-    Emotion,
-    Scale(Scale),
-    Age,
-    Gender,
-    Ethnicity,
-    Education,
+/// The header of the long format.
+pub const LONG_HEADER: &str = "participant_id,group,stimulus_id,trial,measure,value,rt_ms\n";
+
+/// One row of the long format as typed cells: what a study's database yields for an analysis
+/// in memory, and what its `responses.csv` export is written from.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LongRow {
+    pub participant_id: String,
+    pub group: String,
+    /// Empty on rows about the participant.
+    pub stimulus_id: String,
+    /// 1-based presentation position; `None` on rows about the participant.
+    pub trial: Option<i64>,
+    pub measure: Measure,
+    pub value: String,
+    pub rt_ms: Option<f64>,
 }
 
-impl Measure {
-    /// Measures given per stimulus (the rest are about the participant).
-    const STIMULUS_MEASURES: u64 = 6;
-
-    /// A dense index in `0..STIMULUS_MEASURES` for the measures given per stimulus.
-    fn slot(self) -> u64 {
-        match self {
-            Measure::Aus => 0,
-            Measure::Emotion => 1,
-            Measure::Scale(Scale::Believability) => 2,
-            Measure::Scale(Scale::DescriptionMatch) => 3,
-            Measure::Scale(Scale::Q1) => 4,
-            Measure::Scale(Scale::Q2) => 5,
-            _ => unreachable!("only measures about a stimulus are keyed"),
-        }
-    }
-
-    /// The measure's name for a [`Measure::slot`].
-    fn slot_name(slot: u64) -> &'static str {
-        ["aus", "emotion", "believability", "description_match", "q1", "q2"][slot as usize]
+impl LongRow {
+    /// Appends the row as a CSV line under [`LONG_HEADER`].
+    pub fn write_csv(&self, out: &mut String) {
+        use std::fmt::Write;
+        let trial = self.trial.map(|t| t.to_string()).unwrap_or_default();
+        let rt = self.rt_ms.map(|v| v.to_string()).unwrap_or_default();
+        let (pid, group, sid, value) = (csv_field(&self.participant_id), csv_field(&self.group), csv_field(&self.stimulus_id), csv_field(&self.value));
+        let _ = writeln!(out, "{pid},{group},{sid},{trial},{},{value},{rt}", self.measure.name());
     }
 }
+
+/// A dense index of a measure, for packing judgement keys.
+fn slot(measure: Measure) -> u64 {
+    DECLARATIONS.iter().position(|d| d.measure == measure).expect("every measure is declared") as u64
+}
+
+const SLOTS: u64 = DECLARATIONS.len() as u64;
 
 /// One judgement about a stimulus, for the duplicate check.
 #[derive(Clone, Copy)]
@@ -156,20 +121,229 @@ fn first_duplicate(judgements: &mut [Judgement]) -> Option<(Judgement, Judgement
     judgements.windows(2).filter(|w| w[0].key == w[1].key).map(|w| (w[0], w[1])).min_by_key(|(_, dup)| dup.row)
 }
 
-fn measure(text: &str) -> Option<Measure> {
-    Some(match text {
-        "aus" => Measure::Aus,
-        "emotion" => Measure::Emotion,
-        "believability" => Measure::Scale(Scale::Believability),
-        "description_match" => Measure::Scale(Scale::DescriptionMatch),
-        "q1" => Measure::Scale(Scale::Q1),
-        "q2" => Measure::Scale(Scale::Q2),
-        "age" => Measure::Age,
-        "gender" => Measure::Gender,
-        "ethnicity" => Measure::Ethnicity,
-        "education" => Measure::Education,
-        _ => return None,
-    })
+/// The columns of the long format, by index in the file.
+struct Columns {
+    participant: usize,
+    group: usize,
+    stimulus: usize,
+    trial: usize,
+    measure: usize,
+    value: usize,
+    rt: usize,
+}
+
+impl Columns {
+    fn find(input: &TableInput) -> Result<Columns, InputError> {
+        Ok(Columns {
+            participant: input.column("participant_id")?,
+            group: input.column("group")?,
+            stimulus: input.column("stimulus_id")?,
+            trial: input.column("trial")?,
+            measure: input.column("measure")?,
+            value: input.column("value")?,
+            rt: input.column("rt_ms")?,
+        })
+    }
+}
+
+/// The state of one pass over a response file. Ids are interned: each distinct participant,
+/// group and stimulus id is hashed into its index once per run of equal ids (rows of one
+/// participant and one stimulus are usually adjacent), and never copied per row.
+struct Reader<'a> {
+    out: Responses,
+    manifest: &'a Manifest,
+    catalog: &'a Catalog,
+    file: std::path::PathBuf,
+    participant_index: FxHashMap<Box<str>, usize>,
+    group_index: FxHashMap<Box<str>, usize>,
+    last_participant: (Vec<u8>, usize),
+    last_stimulus: (Vec<u8>, usize),
+    /// Every judgement as (participant, stimulus, measure) packed into one integer, with its row
+    /// and line; duplicates are found by sorting once at the end (or at the first other error,
+    /// so the error reported is still the first one in file order).
+    judgements: Vec<Judgement>,
+    aus_cache: FxHashMap<Box<str>, Expression>,
+}
+
+impl<'a> Reader<'a> {
+    fn new(file: std::path::PathBuf, manifest: &'a Manifest, catalog: &'a Catalog) -> Reader<'a> {
+        Reader {
+            out: Responses { emotion_labels: LabelSet::Emotion.labels().to_vec(), ..Responses::default() },
+            manifest,
+            catalog,
+            file,
+            participant_index: FxHashMap::default(),
+            group_index: FxHashMap::default(),
+            last_participant: (Vec::new(), usize::MAX),
+            last_stimulus: (Vec::new(), usize::MAX),
+            judgements: Vec::new(),
+            aus_cache: FxHashMap::default(),
+        }
+    }
+
+    fn cell(&self, place: Place, column: &str, problem: String) -> InputError {
+        InputError::Cell { file: self.file.clone(), row: place.row, line: place.line, column: column.to_string(), problem }
+    }
+
+    /// Reads one row of a file: checks the cells that are text there, then the judgement.
+    fn row(&mut self, r: &Fields<'_>, c: &Columns, place: Place) -> Result<(), InputError> {
+        let m_text = r.get(c.measure);
+        let trial = r.get(c.trial);
+        let rt = r.get(c.rt);
+        let (pid, group) = (r.get(c.participant), r.get(c.group));
+        self.participant_cells(pid, group, place)?;
+        let measure = Measure::parse(m_text)
+            .ok_or_else(|| self.cell(place, "measure", format!("unknown measure \"{}\" ({})", crate::study::excerpt(m_text, 32), Measure::names(", "))))?;
+        if !trial.is_empty() && trial.parse::<u64>().is_err() {
+            return Err(self.cell(place, "trial", format!("\"{}\" is not a whole number", crate::study::excerpt(trial, 32))));
+        }
+        if !rt.is_empty() && !rt.parse::<f64>().is_ok_and(|v| v.is_finite() && v >= 0.0) {
+            return Err(self.cell(place, "rt_ms", format!("\"{}\" is not a non-negative number of milliseconds", crate::study::excerpt(rt, 32))));
+        }
+        self.judged(pid, group, r.get(c.stimulus), measure, r.get(c.value), place)
+    }
+
+    /// Reads one typed row (from a study's database).
+    fn long_row(&mut self, r: &LongRow, place: Place) -> Result<(), InputError> {
+        self.participant_cells(&r.participant_id, &r.group, place)?;
+        if r.rt_ms.is_some_and(|v| !(v.is_finite() && v >= 0.0)) {
+            return Err(self.cell(place, "rt_ms", "not a non-negative number of milliseconds".into()));
+        }
+        self.judged(&r.participant_id, &r.group, &r.stimulus_id, r.measure, &r.value, place)
+    }
+
+    fn participant_cells(&self, pid: &str, group: &str, place: Place) -> Result<(), InputError> {
+        if pid.is_empty() {
+            return Err(self.cell(place, "participant_id", "empty participant id".into()));
+        }
+        if group.is_empty() {
+            return Err(self.cell(place, "group", "empty group".into()));
+        }
+        Ok(())
+    }
+
+    /// One judgement: about the participant (no stimulus) or about a stimulus, as declared.
+    fn judged(&mut self, pid: &str, group: &str, sid: &str, measure: Measure, value: &str, place: Place) -> Result<(), InputError> {
+        let p = self.participant(pid, group, place)?;
+        let name = measure.name();
+        match (measure.about(), sid.is_empty()) {
+            (About::Participant, true) => self.demographic(p, measure, value, place),
+            (About::Participant, false) => Err(self.cell(place, "stimulus_id", format!("measure \"{name}\" is about the participant: stimulus_id must be empty"))),
+            (About::Stimulus, true) => Err(self.cell(place, "stimulus_id", format!("measure \"{name}\" needs a stimulus id"))),
+            (About::Stimulus, false) => {
+                let s = self.stimulus(sid, place)?;
+                self.judgements.push(Judgement { key: (p as u64 * self.manifest.len() as u64 + s as u64) * SLOTS + slot(measure), row: place.row, line: place.line });
+                self.judgement(p, s, measure, value, place)
+            }
+        }
+    }
+
+    /// The index of `group`, added when new.
+    fn group(&mut self, group: &str) -> usize {
+        if let Some(&g) = self.group_index.get(group) {
+            return g;
+        }
+        self.out.groups.push(group.to_string());
+        self.group_index.insert(group.into(), self.out.groups.len() - 1);
+        self.out.groups.len() - 1
+    }
+
+    /// The index of participant `pid`, added when new; refuses a change of group.
+    fn participant(&mut self, pid: &str, group: &str, place: Place) -> Result<usize, InputError> {
+        let p = if self.last_participant.1 != usize::MAX && self.last_participant.0 == pid.as_bytes() {
+            self.last_participant.1
+        } else {
+            let p = match self.participant_index.get(pid) {
+                Some(&p) => p,
+                None => {
+                    let g = self.group(group);
+                    self.out.participants.push(Participant { id: pid.to_string(), group: g, ..Participant::default() });
+                    self.participant_index.insert(pid.into(), self.out.participants.len() - 1);
+                    self.out.participants.len() - 1
+                }
+            };
+            self.last_participant.0.clear();
+            self.last_participant.0.extend_from_slice(pid.as_bytes());
+            self.last_participant.1 = p;
+            p
+        };
+        let earlier = &self.out.groups[self.out.participants[p].group];
+        if earlier != group {
+            return Err(self.cell(place, "group", format!("participant \"{pid}\" is in group \"{earlier}\" on an earlier row")));
+        }
+        Ok(p)
+    }
+
+    /// The manifest index of stimulus `sid`.
+    fn stimulus(&mut self, sid: &str, place: Place) -> Result<usize, InputError> {
+        if self.last_stimulus.1 != usize::MAX && self.last_stimulus.0 == sid.as_bytes() {
+            return Ok(self.last_stimulus.1);
+        }
+        let s = self
+            .manifest
+            .position(sid)
+            .ok_or_else(|| self.cell(place, "stimulus_id", format!("unknown stimulus id \"{}\" (not in the manifest)", crate::study::excerpt(sid, 64))))?;
+        self.last_stimulus.0.clear();
+        self.last_stimulus.0.extend_from_slice(sid.as_bytes());
+        self.last_stimulus.1 = s;
+        Ok(s)
+    }
+
+    fn demographic(&mut self, p: usize, measure: Measure, value: &str, place: Place) -> Result<(), InputError> {
+        let parsed = measure.value(value, self.catalog).map_err(|e| self.cell(place, "value", e))?;
+        let participant = &mut self.out.participants[p];
+        let text = match (measure, parsed) {
+            (_, Value::Years(age)) => {
+                participant.age = Some(age);
+                return Ok(());
+            }
+            (_, Value::Text(t)) => t,
+            _ => unreachable!("demographics are years or text"),
+        };
+        let slot = match measure {
+            Measure::Demographic(Demographic::Gender) => &mut participant.gender,
+            Measure::Demographic(Demographic::Ethnicity) => &mut participant.ethnicity,
+            _ => &mut participant.education,
+        };
+        if !text.is_empty() {
+            *slot = Some(text.to_lowercase());
+        }
+        Ok(())
+    }
+
+    fn judgement(&mut self, participant: usize, stimulus: usize, measure: Measure, value: &str, place: Place) -> Result<(), InputError> {
+        if measure == Measure::Aus {
+            let aus = match self.aus_cache.get(value) {
+                Some(e) => e.clone(),
+                None => {
+                    let e = self.catalog.parse(value).map_err(|e| self.cell(place, "value", e.to_string()))?;
+                    self.aus_cache.insert(value.into(), e.clone());
+                    e
+                }
+            };
+            self.out.aus.push(AuAnswer { participant, stimulus, aus });
+            return Ok(());
+        }
+        match measure.value(value, self.catalog).map_err(|e| self.cell(place, "value", e))? {
+            Value::Label(label) => self.out.emotions.push(EmotionAnswer { participant, stimulus, label }),
+            Value::Likert(v) => {
+                let Measure::Scale(scale) = measure else { unreachable!("Likert values belong to scales") };
+                self.out.ratings.push(Rating { participant, stimulus, scale, value: f64::from(v) });
+            }
+            other => unreachable!("{other:?} is not a value about a stimulus"),
+        }
+        Ok(())
+    }
+
+    /// The first repeated judgement, as an error.
+    fn duplicate_error(&mut self) -> Option<InputError> {
+        let (first, dup) = first_duplicate(&mut self.judgements)?;
+        let n = self.manifest.len() as u64;
+        let (p, s, m) = (dup.key / (n * SLOTS), (dup.key / SLOTS) % n, dup.key % SLOTS);
+        let (pid, sid, m_text) = (&self.out.participants[p as usize].id, &self.manifest.stimuli[s as usize].id, DECLARATIONS[m as usize].name);
+        let message = format!("participant \"{pid}\" already gave \"{m_text}\" for stimulus \"{sid}\" on row {}", first.row);
+        Some(self.cell(Place { row: dup.row, line: dup.line }, "measure", message))
+    }
 }
 
 impl Responses {
@@ -190,182 +364,39 @@ impl Responses {
         Self::parse(TableInput::from_reader(Path::new(name), Box::new(std::io::Cursor::new(bytes)))?, manifest, catalog, emotions)
     }
 
+    /// Reads typed rows (a study's database export, in memory); `name` is used in error
+    /// messages, rows are numbered as the same rows in a file would be.
+    pub fn from_rows(name: &str, rows: &[LongRow], manifest: &Manifest, catalog: &Catalog) -> Result<Responses, InputError> {
+        let mut reader = Reader::new(name.into(), manifest, catalog);
+        if rows.is_empty() {
+            return Err(InputError::Empty { file: name.into() });
+        }
+        for (i, row) in rows.iter().enumerate() {
+            reader.long_row(row, Place { row: i as u64 + 1, line: i as u64 + 2 })?;
+        }
+        if let Some(e) = reader.duplicate_error() {
+            return Err(e);
+        }
+        reader.out.rows = rows.len() as u64;
+        Ok(reader.out)
+    }
+
+    /// `emotions` is the table the manifest was read with; the answer labels are the declared
+    /// label set's, which is built from the same shipped table.
     fn parse(mut input: TableInput, manifest: &Manifest, catalog: &Catalog, emotions: &EmotionTable) -> Result<Responses, InputError> {
-        let c_part = input.column("participant_id")?;
-        let c_group = input.column("group")?;
-        let c_stim = input.column("stimulus_id")?;
-        let c_trial = input.column("trial")?;
-        let c_measure = input.column("measure")?;
-        let c_value = input.column("value")?;
-        let c_rt = input.column("rt_ms")?;
-        let mut out = Responses {
-            emotion_labels: emotions.iter().map(|e| e.label.clone()).chain(["none".to_string()]).collect(),
-            ..Responses::default()
-        };
-        let label_index: HashMap<String, usize> = out.emotion_labels.iter().cloned().enumerate().map(|(i, l)| (l, i)).collect();
-        // Ids are interned: each distinct participant, group and stimulus id is hashed into its
-        // index once per run of equal ids (rows of one participant and one stimulus are usually
-        // adjacent), and never copied per row.
-        let mut participant_index: FxHashMap<Box<str>, usize> = FxHashMap::default();
-        let mut group_index: FxHashMap<Box<str>, usize> = FxHashMap::default();
-        let (mut last_pid, mut last_p) = (Vec::<u8>::new(), usize::MAX);
-        let (mut last_sid, mut last_s) = (Vec::<u8>::new(), usize::MAX);
-        // Every judgement as (participant, stimulus, measure) packed into one integer, with its
-        // row and line; duplicates are found by sorting once at the end (or at the first other
-        // error, so the error reported is still the first one in file order).
-        let mut judgements: Vec<Judgement> = Vec::new();
-        let n_stimuli = manifest.len() as u64;
-        let mut aus_cache: HashMap<String, Expression> = HashMap::new();
-        // `for_each_bytes` borrows the reader mutably; errors are built from a copy of the file name.
-        let file = input.file.clone();
-        let cell = |place: Place, column: &str, problem: String| InputError::Cell {
-            file: file.clone(),
-            row: place.row,
-            line: place.line,
-            column: column.to_string(),
-            problem,
-        };
+        debug_assert!(emotions.iter().zip(LabelSet::Emotion.labels()).all(|(e, l)| &e.label == l));
+        let columns = Columns::find(&input)?;
+        let mut reader = Reader::new(input.file.clone(), manifest, catalog);
         let header = input.header_names();
         let read = input.for_each_bytes(|record, place| {
-            let r = Fields::new(record).map_err(|i| cell(place, header.get(i).map_or("?", String::as_str), "not valid UTF-8".into()))?;
-            let pid = r.get(c_part);
-            if pid.is_empty() {
-                return Err(cell(place, "participant_id", "empty participant id".into()));
-            }
-            let group = r.get(c_group);
-            if group.is_empty() {
-                return Err(cell(place, "group", "empty group".into()));
-            }
-            let g = if last_p != usize::MAX && out.groups[out.participants[last_p].group] == group {
-                out.participants[last_p].group
-            } else {
-                match group_index.get(group) {
-                    Some(&g) => g,
-                    None => {
-                        out.groups.push(group.to_string());
-                        group_index.insert(group.into(), out.groups.len() - 1);
-                        out.groups.len() - 1
-                    }
-                }
-            };
-            let p = if last_p != usize::MAX && last_pid == pid.as_bytes() {
-                last_p
-            } else {
-                let p = match participant_index.get(pid) {
-                    Some(&p) => p,
-                    None => {
-                        out.participants.push(Participant { id: pid.to_string(), group: g, ..Participant::default() });
-                        participant_index.insert(pid.into(), out.participants.len() - 1);
-                        out.participants.len() - 1
-                    }
-                };
-                last_pid.clear();
-                last_pid.extend_from_slice(pid.as_bytes());
-                last_p = p;
-                p
-            };
-            if out.participants[p].group != g {
-                return Err(cell(
-                    place,
-                    "group",
-                    format!("participant \"{pid}\" is in group \"{}\" on an earlier row", out.groups[out.participants[p].group]),
-                ));
-            }
-            let m_text = r.get(c_measure);
-            let m = measure(m_text).ok_or_else(|| {
-                cell(
-                    place,
-                    "measure",
-                    format!("unknown measure \"{m_text}\" (aus, emotion, believability, description_match, q1, q2, age, gender, ethnicity, education)"),
-                )
-            })?;
-            let trial = r.get(c_trial);
-            if !trial.is_empty() && trial.parse::<u64>().is_err() {
-                return Err(cell(place, "trial", format!("\"{trial}\" is not a whole number")));
-            }
-            let rt = r.get(c_rt);
-            if !rt.is_empty() && !rt.parse::<f64>().is_ok_and(|v| v.is_finite() && v >= 0.0) {
-                return Err(cell(place, "rt_ms", format!("\"{rt}\" is not a non-negative number of milliseconds")));
-            }
-            let value = r.get(c_value);
-            let sid = r.get(c_stim);
-            let demographic = matches!(m, Measure::Age | Measure::Gender | Measure::Ethnicity | Measure::Education);
-            if demographic {
-                if !sid.is_empty() {
-                    return Err(cell(place, "stimulus_id", format!("measure \"{m_text}\" is about the participant: stimulus_id must be empty")));
-                }
-                let slot = match m {
-                    Measure::Age => {
-                        let age = value.parse::<f64>().ok().filter(|a| (0.0..=120.0).contains(a));
-                        let age = age.ok_or_else(|| cell(place, "value", format!("age \"{value}\" is not a number of years in 0-120")))?;
-                        out.participants[p].age = Some(age);
-                        return Ok(());
-                    }
-                    Measure::Gender => &mut out.participants[p].gender,
-                    Measure::Ethnicity => &mut out.participants[p].ethnicity,
-                    _ => &mut out.participants[p].education,
-                };
-                if !value.is_empty() {
-                    *slot = Some(value.to_lowercase());
-                }
-                return Ok(());
-            }
-            if sid.is_empty() {
-                return Err(cell(place, "stimulus_id", format!("measure \"{m_text}\" needs a stimulus id")));
-            }
-            let s = if last_s != usize::MAX && last_sid == sid.as_bytes() {
-                last_s
-            } else {
-                let s = manifest
-                    .position(sid)
-                    .ok_or_else(|| cell(place, "stimulus_id", format!("unknown stimulus id \"{sid}\" (not in the manifest)")))?;
-                last_sid.clear();
-                last_sid.extend_from_slice(sid.as_bytes());
-                last_s = s;
-                s
-            };
-            let key = (p as u64 * n_stimuli + s as u64) * Measure::STIMULUS_MEASURES + m.slot();
-            judgements.push(Judgement { key, row: place.row, line: place.line });
-            match m {
-                Measure::Aus => {
-                    let aus = match aus_cache.get(value) {
-                        Some(e) => e.clone(),
-                        None => {
-                            let e = catalog.parse(value).map_err(|e| cell(place, "value", e.to_string()))?;
-                            aus_cache.insert(value.to_string(), e.clone());
-                            e
-                        }
-                    };
-                    out.aus.push(AuAnswer { participant: p, stimulus: s, aus });
-                }
-                Measure::Emotion => {
-                    let label = label_index.get(value).copied().ok_or_else(|| {
-                        cell(place, "value", format!("\"{value}\" is not an emotion label (one of {})", out.emotion_labels.join(", ")))
-                    })?;
-                    out.emotions.push(EmotionAnswer { participant: p, stimulus: s, label });
-                }
-                Measure::Scale(scale) => {
-                    let (lo, hi) = scale.range();
-                    let v = value.parse::<u8>().ok().filter(|v| (lo..=hi).contains(v)).ok_or_else(|| {
-                        cell(place, "value", format!("{} \"{value}\" is outside the scale {lo}-{hi} (whole numbers)", scale.name()))
-                    })?;
-                    out.ratings.push(Rating { participant: p, stimulus: s, scale, value: f64::from(v) });
-                }
-                _ => unreachable!("demographic measures returned above"),
-            }
-            Ok(())
+            let r = Fields::new(record).map_err(|i| reader.cell(place, header.get(i).map_or("?", String::as_str), "not valid UTF-8".into()))?;
+            reader.row(&r, &columns, place)
         });
-        if let Some((first, dup)) = first_duplicate(&mut judgements) {
-            let (p, s, m) = (dup.key / (n_stimuli * Measure::STIMULUS_MEASURES), (dup.key / Measure::STIMULUS_MEASURES) % n_stimuli, dup.key % Measure::STIMULUS_MEASURES);
-            let (pid, sid, m_text) = (&out.participants[p as usize].id, &manifest.stimuli[s as usize].id, Measure::slot_name(m));
-            return Err(cell(
-                Place { row: dup.row, line: dup.line },
-                "measure",
-                format!("participant \"{pid}\" already gave \"{m_text}\" for stimulus \"{sid}\" on row {}", first.row),
-            ));
+        if let Some(e) = reader.duplicate_error() {
+            return Err(e);
         }
-        out.rows = read?;
-        Ok(out)
+        reader.out.rows = read?;
+        Ok(reader.out)
     }
 
     /// The label index of `label` among the emotion answer options.

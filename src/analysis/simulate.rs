@@ -15,8 +15,9 @@
 
 use std::fmt::Write;
 
-use crate::facs::{Catalog, EmotionTable, Laterality};
+use crate::facs::{Catalog, EmotionTable, Expression, Laterality};
 use crate::seeded::SplitMix64;
+use crate::study::measure::{Demographic, LabelSet, Measure, Scale};
 
 /// Which experiment to imitate.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -118,155 +119,191 @@ fn manifest_row(out: &mut String, s: &SimStimulus, video: bool, identity: &str, 
     );
 }
 
+/// Writes one row of the long format; `stimulus` and `trial` are empty for rows about the
+/// participant.
+fn long_row(out: &mut String, pid: &str, group: &str, place: Option<(&str, usize)>, measure: Measure, value: &str, rt: Option<u64>) {
+    let (sid, trial) = place.map_or((String::new(), String::new()), |(s, t)| (s.to_string(), t.to_string()));
+    let rt = rt.map(|v| v.to_string()).unwrap_or_default();
+    let _ = writeln!(out, "{pid},{group},{sid},{trial},{},{value},{rt}", measure.name());
+}
+
 fn demographics(out: &mut String, rng: &mut SplitMix64, pid: &str, group: &str) {
     const GENDERS: [&str; 2] = ["female", "male"];
     const ETHNICITIES: [&str; 4] = ["white", "black", "asian", "hispanic"];
     const EDUCATION: [&str; 3] = ["high school", "bachelor", "graduate"];
-    let age = 18 + rng.below(43);
-    let _ = writeln!(out, "{pid},{group},,,age,{age},");
-    let _ = writeln!(out, "{pid},{group},,,gender,{},", GENDERS[rng.below(2)]);
+    let about = |out: &mut String, d: Demographic, value: &str| long_row(out, pid, group, None, Measure::Demographic(d), value, None);
+    about(out, Demographic::Age, &(18 + rng.below(43)).to_string());
+    about(out, Demographic::Gender, GENDERS[rng.below(2)]);
     let eth = [0.58, 0.08, 0.12, 0.22];
     let (mut u, mut k) = (rng.unit(), 0);
     while k < 3 && u >= eth[k] {
         u -= eth[k];
         k += 1;
     }
-    let _ = writeln!(out, "{pid},{group},,,ethnicity,{},", ETHNICITIES[k]);
-    let _ = writeln!(out, "{pid},{group},,,education,{},", EDUCATION[rng.below(3)]);
+    about(out, Demographic::Ethnicity, ETHNICITIES[k]);
+    about(out, Demographic::Education, EDUCATION[rng.below(3)]);
 }
 
 /// Runs a simulation; returns (manifest CSV, responses CSV).
 pub fn simulate(o: &SimOptions) -> (String, String) {
-    let mut rng = SplitMix64(o.seed);
-    let catalog = Catalog::built_in();
-    let mut manifest = String::from(MANIFEST_HEADER);
-    let mut responses = String::from(RESPONSES_HEADER);
-    let groups: Vec<String> = if o.groups.is_empty() { vec!["all".into()] } else { o.groups.clone() };
+    let mut sim = Simulation { o, rng: SplitMix64(o.seed), manifest: String::from(MANIFEST_HEADER), responses: String::from(RESPONSES_HEADER) };
     match o.design {
-        Design::Exp1 | Design::Exp2 => {
-            let hapfacs: Vec<u16> = catalog.iter().filter(|u| u.hapfacs).map(|u| u.code.0).collect();
-            let shown: Vec<String> = match o.design {
-                Design::Exp1 => hapfacs.iter().map(u16::to_string).collect(),
-                _ => TABLE4_COMBINATIONS.iter().map(|s| s.to_string()).collect(),
-            };
-            let stimuli: Vec<SimStimulus> = shown.into_iter().map(|expression| SimStimulus { id: rng.id(), expression, emotion: None }).collect();
-            for (i, s) in stimuli.iter().enumerate() {
-                manifest_row(&mut manifest, s, true, IDENTITIES[i % IDENTITIES.len()], 1.0, o.seed);
-            }
-            for c in 0..o.coders {
-                let pid = format!("coder{}", c + 1);
-                let group = "coders";
-                demographics(&mut responses, &mut rng, &pid, group);
-                let mut order: Vec<usize> = (0..stimuli.len()).collect();
-                rng.shuffle(&mut order);
-                for (trial, &si) in order.iter().enumerate() {
-                    let s = &stimuli[si];
-                    let truth = catalog.parse(&s.expression).expect("simulated expressions are valid");
-                    let mut marked: Vec<(u16, Laterality)> = Vec::new();
-                    let shown: Vec<u16> = truth.codes().iter().map(|c| c.0).collect();
-                    for a in truth.activations() {
-                        let code = a.au.0;
-                        let given = if rng.unit() < o.accuracy {
-                            Some((code, a.side))
-                        } else {
-                            let other = match o.confusion {
-                                Confusion::Similar => SIMILAR_AUS.iter().find(|(s, _)| *s == code).map(|(_, m)| *m).or_else(|| {
-                                    let k = hapfacs.iter().position(|&h| h == code).unwrap_or(0);
-                                    hapfacs.get(k + 1).copied()
-                                }),
-                                Confusion::Uniform => Some(hapfacs[rng.below(hapfacs.len())]),
-                            };
-                            other.filter(|m| !shown.contains(m) || *m == code).map(|m| (m, Laterality::Both))
-                        };
-                        if let Some(g) = given {
-                            if !marked.iter().any(|(m, _)| *m == g.0) {
-                                marked.push(g);
-                            }
-                        }
-                    }
-                    if rng.unit() < o.false_positive {
-                        let extra = hapfacs[rng.below(hapfacs.len())];
-                        if !marked.iter().any(|(m, _)| *m == extra) {
-                            marked.push((extra, Laterality::Both));
-                        }
-                    }
-                    if rng.unit() < o.missing {
-                        continue;
-                    }
-                    marked.sort();
-                    let value: Vec<String> = marked
-                        .iter()
-                        .map(|(m, side)| match side {
-                            Laterality::Left => format!("L{m}"),
-                            Laterality::Right => format!("R{m}"),
-                            Laterality::Both => m.to_string(),
-                        })
-                        .collect();
-                    let rt = 3000 + rng.below(12000);
-                    let _ = writeln!(responses, "{pid},{group},{},{},aus,{},{rt}", s.id, trial + 1, value.join("+"));
+        Design::Exp1 | Design::Exp2 => sim.coders(),
+        Design::Exp3 => sim.raters(),
+    }
+    (sim.manifest, sim.responses)
+}
+
+/// One simulation's options, random stream and output.
+struct Simulation<'a> {
+    o: &'a SimOptions,
+    rng: SplitMix64,
+    manifest: String,
+    responses: String,
+}
+
+impl Simulation<'_> {
+    /// Exp. 1–2: coders mark the AUs of each video.
+    fn coders(&mut self) {
+        let catalog = Catalog::built_in();
+        let hapfacs: Vec<u16> = catalog.iter().filter(|u| u.hapfacs).map(|u| u.code.0).collect();
+        let shown: Vec<String> = match self.o.design {
+            Design::Exp1 => hapfacs.iter().map(u16::to_string).collect(),
+            _ => TABLE4_COMBINATIONS.iter().map(|s| s.to_string()).collect(),
+        };
+        let stimuli: Vec<SimStimulus> = shown.into_iter().map(|expression| SimStimulus { id: self.rng.id(), expression, emotion: None }).collect();
+        for (i, s) in stimuli.iter().enumerate() {
+            manifest_row(&mut self.manifest, s, true, IDENTITIES[i % IDENTITIES.len()], 1.0, self.o.seed);
+        }
+        for c in 0..self.o.coders {
+            let pid = format!("coder{}", c + 1);
+            let group = "coders";
+            demographics(&mut self.responses, &mut self.rng, &pid, group);
+            let mut order: Vec<usize> = (0..stimuli.len()).collect();
+            self.rng.shuffle(&mut order);
+            for (trial, &si) in order.iter().enumerate() {
+                let s = &stimuli[si];
+                let truth = catalog.parse(&s.expression).expect("simulated expressions are valid");
+                let marked = self.coded(&truth, &hapfacs);
+                if self.rng.unit() < self.o.missing {
+                    continue;
                 }
+                let rt = 3000 + self.rng.below(12000);
+                long_row(&mut self.responses, &pid, group, Some((&s.id, trial + 1)), Measure::Aus, &marked, Some(rt as u64));
             }
         }
-        Design::Exp3 => {
-            let emotions = EmotionTable::built_in();
-            let labels: Vec<String> = emotions.iter().map(|e| e.label.clone()).chain(["none".to_string()]).collect();
-            let mut conditions: Vec<(bool, f64, Vec<(SimStimulus, f64)>)> = Vec::new();
-            let mut n = 0;
-            for video in [true, false] {
-                for intensity in [1.0, 0.5] {
-                    let mut stimuli = Vec::new();
-                    for e in emotions.iter() {
-                        for _ in 0..o.identities.max(1) {
-                            let expression = if intensity == 1.0 { e.expression.to_string() } else { e.expression.scaled(intensity).to_string() };
-                            let s = SimStimulus { id: rng.id(), expression, emotion: Some(e.label.clone()) };
-                            manifest_row(&mut manifest, &s, video, IDENTITIES[n % IDENTITIES.len()], intensity, o.seed);
-                            n += 1;
-                            // Each stimulus has its own believability offset.
-                            stimuli.push((s, 0.5 * rng.normal()));
-                        }
-                    }
-                    conditions.push((video, intensity, stimuli));
-                }
+    }
+
+    /// The AUs one coder marks on a stimulus showing `truth`, as notation.
+    fn coded(&mut self, truth: &Expression, hapfacs: &[u16]) -> String {
+        let mut marked: Vec<(u16, Laterality)> = Vec::new();
+        let shown: Vec<u16> = truth.codes().iter().map(|c| c.0).collect();
+        for a in truth.activations() {
+            let code = a.au.0;
+            let given = if self.rng.unit() < self.o.accuracy {
+                Some((code, a.side))
+            } else {
+                let other = match self.o.confusion {
+                    Confusion::Similar => SIMILAR_AUS.iter().find(|(s, _)| *s == code).map(|(_, m)| *m).or_else(|| {
+                        let k = hapfacs.iter().position(|&h| h == code).unwrap_or(0);
+                        hapfacs.get(k + 1).copied()
+                    }),
+                    Confusion::Uniform => Some(hapfacs[self.rng.below(hapfacs.len())]),
+                };
+                other.filter(|m| !shown.contains(m) || *m == code).map(|m| (m, Laterality::Both))
+            };
+            if let Some(g) = given
+                && !marked.iter().any(|(m, _)| *m == g.0)
+            {
+                marked.push(g);
             }
-            let mut pn = 0;
-            for (video, intensity, stimuli) in &conditions {
-                for _ in 0..o.participants {
-                    pn += 1;
-                    let pid = format!("p{pn:04}");
-                    let group = &groups[pn % groups.len()];
-                    demographics(&mut responses, &mut rng, &pid, group);
-                    let leniency = 0.5 * rng.normal();
-                    let mut order: Vec<usize> = (0..stimuli.len()).collect();
-                    rng.shuffle(&mut order);
-                    let p_correct = if *intensity < 1.0 { o.accuracy - 0.1 } else { o.accuracy };
-                    for (trial, &si) in order.iter().enumerate() {
-                        let (s, offset) = &stimuli[si];
-                        let shown = s.emotion.as_deref().expect("exp3 stimuli portray an emotion");
-                        let chosen = if rng.unit() < p_correct {
-                            shown.to_string()
-                        } else {
-                            match o.confusion {
-                                Confusion::Similar => SIMILAR_EMOTIONS.iter().find(|(a, _)| *a == shown).map_or("none", |(_, b)| b).to_string(),
-                                Confusion::Uniform => {
-                                    let others: Vec<&String> = labels.iter().filter(|l| *l != shown).collect();
-                                    others[rng.below(others.len())].clone()
-                                }
-                            }
-                        };
-                        let rt = 800 + rng.below(4000);
-                        if rng.unit() >= o.missing {
-                            let _ = writeln!(responses, "{pid},{group},{},{},emotion,{chosen},{rt}", s.id, trial + 1);
-                        }
-                        let b = (3.6 + if *video { 0.0 } else { 0.1 } + offset + leniency + 0.6 * rng.normal()).round().clamp(1.0, 5.0) as u8;
-                        if rng.unit() >= o.missing {
-                            let _ = writeln!(responses, "{pid},{group},{},{},believability,{b},", s.id, trial + 1);
-                        }
+        }
+        if self.rng.unit() < self.o.false_positive {
+            let extra = hapfacs[self.rng.below(hapfacs.len())];
+            if !marked.iter().any(|(m, _)| *m == extra) {
+                marked.push((extra, Laterality::Both));
+            }
+        }
+        marked.sort();
+        let terms: Vec<String> = marked
+            .iter()
+            .map(|(m, side)| match side {
+                Laterality::Left => format!("L{m}"),
+                Laterality::Right => format!("R{m}"),
+                Laterality::Both => m.to_string(),
+            })
+            .collect();
+        terms.join("+")
+    }
+
+    /// Exp. 3: the stimuli of each media × intensity condition, each with its believability offset.
+    fn conditions(&mut self) -> Vec<(bool, f64, Vec<(SimStimulus, f64)>)> {
+        let emotions = EmotionTable::built_in();
+        let mut conditions = Vec::new();
+        let mut n = 0;
+        for video in [true, false] {
+            for intensity in [1.0, 0.5] {
+                let mut stimuli = Vec::new();
+                for e in emotions.iter() {
+                    for _ in 0..self.o.identities.max(1) {
+                        let expression = if intensity == 1.0 { e.expression.to_string() } else { e.expression.scaled(intensity).to_string() };
+                        let s = SimStimulus { id: self.rng.id(), expression, emotion: Some(e.label.clone()) };
+                        manifest_row(&mut self.manifest, &s, video, IDENTITIES[n % IDENTITIES.len()], intensity, self.o.seed);
+                        n += 1;
+                        stimuli.push((s, 0.5 * self.rng.normal()));
+                    }
+                }
+                conditions.push((video, intensity, stimuli));
+            }
+        }
+        conditions
+    }
+
+    /// Exp. 3: each rater sees one condition, chooses an emotion and rates believability.
+    fn raters(&mut self) {
+        let groups: Vec<String> = if self.o.groups.is_empty() { vec!["all".into()] } else { self.o.groups.clone() };
+        let conditions = self.conditions();
+        let mut pn = 0;
+        for (video, intensity, stimuli) in &conditions {
+            for _ in 0..self.o.participants {
+                pn += 1;
+                let pid = format!("p{pn:04}");
+                let group = &groups[pn % groups.len()];
+                demographics(&mut self.responses, &mut self.rng, &pid, group);
+                let leniency = 0.5 * self.rng.normal();
+                let mut order: Vec<usize> = (0..stimuli.len()).collect();
+                self.rng.shuffle(&mut order);
+                let p_correct = if *intensity < 1.0 { self.o.accuracy - 0.1 } else { self.o.accuracy };
+                for (trial, &si) in order.iter().enumerate() {
+                    let (s, offset) = &stimuli[si];
+                    let chosen = self.chosen(s.emotion.as_deref().expect("exp3 stimuli portray an emotion"), p_correct);
+                    let rt = 800 + self.rng.below(4000);
+                    let place = Some((s.id.as_str(), trial + 1));
+                    if self.rng.unit() >= self.o.missing {
+                        long_row(&mut self.responses, &pid, group, place, Measure::Emotion, &chosen, Some(rt as u64));
+                    }
+                    let b = (3.6 + if *video { 0.0 } else { 0.1 } + offset + leniency + 0.6 * self.rng.normal()).round().clamp(1.0, 5.0) as u8;
+                    if self.rng.unit() >= self.o.missing {
+                        long_row(&mut self.responses, &pid, group, place, Measure::Scale(Scale::Believability), &b.to_string(), None);
                     }
                 }
             }
         }
     }
-    (manifest, responses)
+
+    /// The label a rater chooses for a stimulus showing `shown`.
+    fn chosen(&mut self, shown: &str, p_correct: f64) -> String {
+        if self.rng.unit() < p_correct {
+            return shown.to_string();
+        }
+        match self.o.confusion {
+            Confusion::Similar => SIMILAR_EMOTIONS.iter().find(|(a, _)| *a == shown).map_or("none", |(_, b)| b).to_string(),
+            Confusion::Uniform => {
+                let others: Vec<&String> = LabelSet::Emotion.labels().iter().filter(|l| *l != shown).collect();
+                others[self.rng.below(others.len())].clone()
+            }
+        }
+    }
 }
 
 #[cfg(test)]

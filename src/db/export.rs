@@ -14,8 +14,10 @@ use tokio::sync::mpsc;
 
 use super::participants::Demographics;
 use super::{Db, DbError};
+use crate::analysis::responses::LongRow;
 use crate::stimuli::manifest::csv_field;
 use crate::study::StudyDesign;
+use crate::study::measure::{Demographic, Kind, Measure};
 
 /// Which participations an export includes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -61,7 +63,7 @@ impl Format {
     }
 }
 
-pub const LONG_HEADER: &str = "participant_id,group,stimulus_id,trial,measure,value,rt_ms\n";
+pub use crate::analysis::responses::LONG_HEADER;
 
 /// One participant's answers, gathered while streaming.
 #[derive(Debug, Default, serde::Serialize)]
@@ -86,48 +88,41 @@ struct TrialRecord {
     received_at: i64,
 }
 
-/// The measures a study's answers have, in column order.
+/// The measures a study's answers have, in column order (their names).
 pub fn measures(design: &StudyDesign) -> Vec<String> {
-    let main = match design.task {
-        crate::study::TaskKind::AuCoding => Some("aus"),
-        crate::study::TaskKind::Emotion => Some("emotion"),
-        crate::study::TaskKind::Rating => None,
-    };
-    main.into_iter().map(String::from).chain(design.items.iter().map(|i| i.measure.clone())).collect()
-}
-
-fn rt_text(rt: Option<f64>) -> String {
-    rt.map(|v| format!("{}", (v * 10.0).round() / 10.0)).unwrap_or_default()
+    design.measures().into_iter().map(|m| m.name().to_string()).collect()
 }
 
 impl ParticipantRecord {
-    fn long_rows(&self, out: &mut String) {
-        let (pid, group) = (csv_field(&self.participant_id), csv_field(&self.group));
+    /// The participant's judgements as rows of the long format: demographics first, then the
+    /// main trials' answers in presentation order (practice and attention trials are left out).
+    fn long_rows(&self) -> Result<Vec<LongRow>, DbError> {
+        let row = |stimulus_id: &str, trial: Option<i64>, measure: Measure, value: &str, rt_ms: Option<f64>| LongRow {
+            participant_id: self.participant_id.clone(),
+            group: self.group.clone(),
+            stimulus_id: stimulus_id.to_string(),
+            trial,
+            measure,
+            value: value.to_string(),
+            rt_ms: rt_ms.map(|v| (v * 10.0).round() / 10.0),
+        };
+        let mut rows = Vec::new();
         if let Some(d) = &self.demographics {
-            let age = d.age.map(|a| a.to_string()).unwrap_or_default();
-            for (measure, value) in [("age", age.as_str()), ("gender", &d.gender), ("ethnicity", &d.ethnicity), ("education", &d.education)] {
-                if !value.is_empty() {
-                    out.push_str(&format!("{pid},{group},,,{measure},{},\n", csv_field(value)));
-                }
-            }
+            rows.extend(Demographic::ALL.iter().map(|&m| (m, d.text(m))).filter(|(_, v)| !v.is_empty()).map(|(m, v)| row("", None, Measure::Demographic(m), &v, None)));
         }
         for t in self.trials.iter().filter(|t| t.kind == "trial") {
-            for (measure, value) in &t.answers {
-                out.push_str(&format!("{pid},{group},{},{},{measure},{},{}\n", csv_field(&t.stimulus_id), t.trial, csv_field(value), rt_text(t.rt_ms)));
+            for (name, value) in &t.answers {
+                let measure = Measure::parse(name).ok_or_else(|| DbError::Internal(format!("stored answer has an unknown measure \"{}\"", crate::study::excerpt(name, 32))))?;
+                rows.push(row(&t.stimulus_id, Some(t.trial), measure, value, t.rt_ms));
             }
         }
+        Ok(rows)
     }
 
     fn wide_row(&self, columns: &[(String, String)], out: &mut String) {
         let d = self.demographics.clone().unwrap_or_default();
-        let mut cells = vec![
-            csv_field(&self.participant_id),
-            csv_field(&self.group),
-            d.age.map(|a| a.to_string()).unwrap_or_default(),
-            csv_field(&d.gender),
-            csv_field(&d.ethnicity),
-            csv_field(&d.education),
-        ];
+        let mut cells = vec![csv_field(&self.participant_id), csv_field(&self.group)];
+        cells.extend(Demographic::ALL.map(|m| csv_field(&d.text(m))));
         let answers: HashMap<(&str, &str), &str> = self
             .trials
             .iter()
@@ -139,6 +134,14 @@ impl ParticipantRecord {
         }
         out.push_str(&cells.join(","));
         out.push('\n');
+    }
+}
+
+/// The scope's condition on participations.
+fn scope_sql(scope: Scope) -> &'static str {
+    match scope {
+        Scope::Completed => "p.state = 'completed' AND p.excluded = 0",
+        Scope::All => "p.state <> 'withdrawn'",
     }
 }
 
@@ -156,42 +159,82 @@ impl Db {
         rx
     }
 
+    /// Every judgement of a study as typed rows of the long format (what `responses.csv` holds),
+    /// for an analysis in memory.
+    pub async fn long_rows(&self, study_id: i64, scope: Scope) -> Result<Vec<LongRow>, DbError> {
+        let mut rows = Vec::new();
+        let mut failure = None;
+        self.records(study_id, scope, |record| {
+            let keep_going = match record.long_rows() {
+                Ok(these) => {
+                    rows.extend(these);
+                    true
+                }
+                Err(e) => {
+                    failure = Some(e);
+                    false
+                }
+            };
+            async move { keep_going }
+        })
+        .await?;
+        failure.map_or(Ok(rows), Err)
+    }
+
     async fn export_into(&self, study_id: i64, measures: &[String], stimuli: &[String], format: Format, scope: Scope, tx: &mpsc::Sender<Result<String, DbError>>) -> Result<(), DbError> {
         let columns: Vec<(String, String)> = stimuli.iter().flat_map(|s| measures.iter().map(move |m| (s.clone(), m.clone()))).collect();
-        let head = match format {
-            Format::Long => LONG_HEADER.to_string(),
-            Format::Wide => {
-                let mut h = "participant_id,group,age,gender,ethnicity,education".to_string();
-                for (s, m) in &columns {
-                    h.push_str(&format!(",{}", csv_field(&format!("{s}:{m}"))));
-                }
-                h + "\n"
-            }
-            Format::Json => "{\"participants\": [\n".to_string(),
-        };
-        if tx.send(Ok(head)).await.is_err() {
+        if tx.send(Ok(head(format, &columns))).await.is_err() {
             return Ok(());
         }
+        let mut first = true;
+        let mut chunk = String::new();
+        let mut failure = None;
+        self.records(study_id, scope, |record| {
+            let emitted = emit(&record, format, &columns, &mut first, &mut chunk);
+            let full = (chunk.len() > 64 * 1024).then(|| std::mem::take(&mut chunk));
+            let keep_going = emitted.map_err(|e| failure = Some(e)).is_ok();
+            async move {
+                match full {
+                    Some(text) if keep_going => tx.send(Ok(text)).await.is_ok(),
+                    _ => keep_going,
+                }
+            }
+        })
+        .await?;
+        if let Some(e) = failure {
+            return Err(e);
+        }
+        if format == Format::Json {
+            chunk.push_str("\n]}\n");
+        }
+        let _ = tx.send(Ok(chunk)).await;
+        Ok(())
+    }
+
+    /// Reads the scope's participations with their saved trials, one participant at a time in
+    /// participant order, handing each to `each` (which returns false to stop).
+    async fn records<F, Fut>(&self, study_id: i64, scope: Scope, mut each: F) -> Result<(), DbError>
+    where
+        F: FnMut(ParticipantRecord) -> Fut,
+        Fut: std::future::Future<Output = bool>,
+    {
         let demographics = self.demographics_of(study_id).await?;
-        let scope_sql = match scope {
-            Scope::Completed => "p.state = 'completed' AND p.excluded = 0",
-            Scope::All => "p.state <> 'withdrawn'",
-        };
         let sql = format!(
             "SELECT p.id, p.public_id, p.grp, p.state, p.excluded, t.position, t.kind, t.stimulus_id, r.answers, r.rt_ms, r.video_ended, r.load_failed, r.received_at
              FROM participants p JOIN trials t ON t.participant_id = p.id JOIN responses r ON r.participant_id = t.participant_id AND r.position = t.position
-             WHERE p.study_id = ? AND {scope_sql} ORDER BY p.id, t.position"
+             WHERE p.study_id = ? AND {} ORDER BY p.id, t.position",
+            scope_sql(scope)
         );
         let mut rows = sqlx::query(sqlx::AssertSqlSafe(sql)).bind(study_id).fetch(&self.reader);
         let mut current: Option<(i64, ParticipantRecord)> = None;
-        let mut first = true;
-        let mut chunk = String::new();
         while let Some(row) = rows.next().await {
             let row = row?;
             let id: i64 = row.get(0);
             if current.as_ref().is_none_or(|(cid, _)| *cid != id) {
-                if let Some((_, record)) = current.take() {
-                    emit(&record, format, &columns, &mut first, &mut chunk);
+                if let Some((_, record)) = current.take()
+                    && !each(record).await
+                {
+                    return Ok(());
                 }
                 let record = ParticipantRecord {
                     participant_id: row.get(1),
@@ -203,31 +246,13 @@ impl Db {
                 };
                 current = Some((id, record));
             }
-            let answers: String = row.get(8);
-            let answers: Vec<(String, String)> = serde_json::from_str(&answers).map_err(|e| DbError::Internal(format!("stored answer unreadable: {e}")))?;
             if let Some((_, record)) = current.as_mut() {
-                record.trials.push(TrialRecord {
-                    trial: row.get::<i64, _>(5) + 1,
-                    kind: row.get(6),
-                    stimulus_id: row.get(7),
-                    answers,
-                    rt_ms: row.get(9),
-                    video_ended: row.get::<Option<i64>, _>(10).map(|v| v != 0),
-                    load_failed: row.get::<i64, _>(11) != 0,
-                    received_at: row.get(12),
-                });
-            }
-            if chunk.len() > 64 * 1024 && tx.send(Ok(std::mem::take(&mut chunk))).await.is_err() {
-                return Ok(());
+                record.trials.push(trial_record(&row)?);
             }
         }
         if let Some((_, record)) = current.take() {
-            emit(&record, format, &columns, &mut first, &mut chunk);
+            each(record).await;
         }
-        if format == Format::Json {
-            chunk.push_str("\n]}\n");
-        }
-        let _ = tx.send(Ok(chunk)).await;
         Ok(())
     }
 
@@ -240,17 +265,49 @@ impl Db {
     }
 }
 
-fn emit(record: &ParticipantRecord, format: Format, columns: &[(String, String)], first: &mut bool, out: &mut String) {
+/// One saved trial of the export query's row.
+fn trial_record(row: &sqlx::sqlite::SqliteRow) -> Result<TrialRecord, DbError> {
+    let answers: String = row.get(8);
+    let answers: Vec<(String, String)> = serde_json::from_str(&answers).map_err(|e| DbError::Internal(format!("stored answer unreadable: {e}")))?;
+    Ok(TrialRecord {
+        trial: row.get::<i64, _>(5) + 1,
+        kind: row.get(6),
+        stimulus_id: row.get(7),
+        answers,
+        rt_ms: row.get(9),
+        video_ended: row.get::<Option<i64>, _>(10).map(|v| v != 0),
+        load_failed: row.get::<i64, _>(11) != 0,
+        received_at: row.get(12),
+    })
+}
+
+/// The first chunk of an export: the CSV header, or the JSON document's opening.
+fn head(format: Format, columns: &[(String, String)]) -> String {
     match format {
-        Format::Long => record.long_rows(out),
+        Format::Long => LONG_HEADER.to_string(),
+        Format::Wide => {
+            let mut h = ["participant_id", "group"].into_iter().chain(Demographic::ALL.map(Demographic::name)).collect::<Vec<_>>().join(",");
+            for (s, m) in columns {
+                h.push_str(&format!(",{}", csv_field(&format!("{s}:{m}"))));
+            }
+            h + "\n"
+        }
+        Format::Json => "{\"participants\": [\n".to_string(),
+    }
+}
+
+fn emit(record: &ParticipantRecord, format: Format, columns: &[(String, String)], first: &mut bool, out: &mut String) -> Result<(), DbError> {
+    match format {
+        Format::Long => record.long_rows()?.iter().for_each(|r| r.write_csv(out)),
         Format::Wide => record.wide_row(columns, out),
         Format::Json => {
             if !std::mem::take(first) {
                 out.push_str(",\n");
             }
-            out.push_str(&serde_json::to_string(record).unwrap_or_default());
+            out.push_str(&serde_json::to_string(record).map_err(|e| DbError::Internal(e.to_string()))?);
         }
     }
+    Ok(())
 }
 
 /// The codebook of a study's exports: every column and, for categorical measures, its levels.
@@ -260,26 +317,25 @@ pub fn codebook(design: &StudyDesign) -> String {
         out.push_str(&format!("{file},{},{},{}\n", csv_field(column), csv_field(description), csv_field(levels)));
     };
     let long = "responses.csv";
+    let measures: Vec<Measure> = design.measures().into_iter().chain(Demographic::ALL.map(Measure::Demographic)).collect();
     row(long, "participant_id", "Opaque participant id (not the platform's worker id)", "");
     row(long, "group", "The study's group label", &design.group);
     row(long, "stimulus_id", "Stimulus id of the set's manifest (empty on demographic rows)", "");
     row(long, "trial", "Presentation position of the trial, 1-based, counting practice and attention trials (empty on demographic rows)", "");
-    row(long, "measure", "What the value is", &measures(design).into_iter().chain(["age", "gender", "ethnicity", "education"].map(String::from)).collect::<Vec<_>>().join("|"));
+    row(long, "measure", "What the value is", &measures.iter().map(|m| m.name()).collect::<Vec<_>>().join("|"));
     row(long, "value", "The answer", "");
     row(long, "rt_ms", "Milliseconds from the stimulus's first painted frame to the answer, 0.1 ms resolution", "");
-    match design.task {
-        crate::study::TaskKind::Emotion => row("", "emotion", "Emotion chosen", &crate::study::design::emotion_choices().join("|")),
-        crate::study::TaskKind::AuCoding => row("", "aus", "AUs the coder marked, FACS notation (L/R = side, A-E = intensity); empty = no AU", ""),
-        crate::study::TaskKind::Rating => {}
+    for measure in measures {
+        let declared = measure.declaration();
+        match (measure, declared.kind) {
+            (Measure::Scale(scale), _) => {
+                let item = design.items.iter().find(|i| i.measure == scale).expect("a design's measures come from its items");
+                row("", declared.name, &item.prompt, &format!("{}={} .. {}={}", item.min, item.min_label, item.max, item.max_label));
+            }
+            (_, Kind::Labels(set)) => row("", declared.name, declared.codebook, &set.labels().join("|")),
+            _ => row("", declared.name, declared.codebook, ""),
+        }
     }
-    for item in &design.items {
-        let levels = format!("{}={} .. {}={}", item.min, item.min_label, item.max, item.max_label);
-        row("", &item.measure, &item.prompt, &levels);
-    }
-    row("", "age", "Age in years as stated", "");
-    row("", "gender", "As stated", "");
-    row("", "ethnicity", "As stated", "");
-    row("", "education", "As stated", "");
     row("wide.csv", "<stimulus_id>:<measure>", "One column per stimulus and measure; one row per participant", "");
     row("responses.json", "participants[].trials[]", "Every saved trial with kind (practice|trial|attention), answers, rt_ms, video_ended, load_failed, received_at (Unix ms)", "");
     out

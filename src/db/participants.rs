@@ -79,6 +79,19 @@ pub struct Demographics {
     pub education: String,
 }
 
+impl Demographics {
+    /// One answer as the long format writes it (empty when not given).
+    pub fn text(&self, measure: crate::study::measure::Demographic) -> String {
+        use crate::study::measure::Demographic;
+        match measure {
+            Demographic::Age => self.age.map(|a| a.to_string()).unwrap_or_default(),
+            Demographic::Gender => self.gender.clone(),
+            Demographic::Ethnicity => self.ethnicity.clone(),
+            Demographic::Education => self.education.clone(),
+        }
+    }
+}
+
 fn participation(row: sqlx::sqlite::SqliteRow) -> Result<Participation, DbError> {
     let state: String = row.get("state");
     Ok(Participation {
@@ -630,7 +643,7 @@ pub(crate) async fn save_in(tx: &mut SqliteConnection, save: &SaveRequest) -> Re
     if let Some(repeated) = check_save(&facts, save, &answers)? {
         return Ok(repeated);
     }
-    let failed_check = facts.check.and_then(|i| save.checks.get(i as usize)).is_some_and(|c| !passes_check(answer, &c.measure, &c.value));
+    let failed_check = facts.check.and_then(|i| save.checks.get(i as usize)).is_some_and(|c| !passes_check(answer, c.measure, &c.value));
     let failures = facts.failures + i64::from(failed_check);
     let remaining = facts.remaining - 1;
     let (state, reason) = match after_save(failed_check, failures, save.max_failures, remaining) {

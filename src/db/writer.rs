@@ -352,7 +352,7 @@ mod tests {
         .execute(&db.writer)
         .await
         .expect("trigger");
-        let answer = Answer(vec![("emotion".into(), "fear".into())]);
+        let answer = Answer::emotion("fear");
         let save = |key: &str| Request::Save(SaveRequest::new(&active, 0, key, &answer, SaveTiming::default(), &design));
         let consent = |token: &str| Request::Consent { token: token.to_string(), consent_sha256: design.consent_sha256() };
         let outcomes = store(&db.writer, &mut loads, vec![consent(&active), consent(&broken), consent(&withdrawn), save("k1"), save("k2"), consent(&"0".repeat(32)), save("k1")])
@@ -390,11 +390,11 @@ mod tests {
         }
         // Every trial of both in one batch: the careful one answers the check as asked.
         let mut saves = Vec::new();
-        for (token, at_check) in tokens.iter().zip(["fear", "joy"]) {
+        for (token, at_check) in tokens.iter().zip(["fear", "surprise"]) {
             let p = db.participation(token).await.expect("read").expect("participation");
             for trial in db.trials(p.id).await.expect("trials") {
                 let emotion = if trial.check_index.is_some() { at_check } else { "anger" };
-                let answer = Answer(vec![("emotion".into(), emotion.into())]);
+                let answer = Answer::emotion(emotion);
                 saves.push(Request::Save(SaveRequest::new(token, trial.position, &format!("{token}-{}", trial.position), &answer, SaveTiming::default(), &design)));
             }
         }

@@ -26,8 +26,7 @@
 
 use serde::Deserialize;
 
-use crate::analysis::responses::Scale;
-use crate::facs::EmotionTable;
+use super::measure::{LabelSet, Measure, Scale};
 
 /// A design that cannot be used; `field` says where.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -133,8 +132,8 @@ impl Platform {
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct LikertItem {
-    /// The long format's measure: believability, description_match, q1 or q2.
-    pub measure: String,
+    /// The long format's measure: one of the declared rating scales.
+    pub measure: Scale,
     pub prompt: String,
     pub min: u8,
     pub max: u8,
@@ -155,7 +154,7 @@ impl LikertItem {
 #[serde(deny_unknown_fields)]
 pub struct AttentionCheck {
     pub instruction: String,
-    pub measure: String,
+    pub measure: Measure,
     pub value: String,
 }
 
@@ -305,18 +304,13 @@ pub struct StudyDesign {
 
 /// The answer labels of the emotion task: the EmFACS labels (with neutral) and "none".
 pub fn emotion_choices() -> &'static [String] {
-    static CHOICES: std::sync::OnceLock<Vec<String>> = std::sync::OnceLock::new();
-    CHOICES.get_or_init(|| {
-        let mut labels: Vec<String> = EmotionTable::built_in().iter().map(|e| e.label.clone()).collect();
-        labels.push("none".into());
-        labels
-    })
+    LabelSet::Emotion.labels()
 }
 
 /// The believability item of the emotion task (HapFACS: 1 = not believable … 5 = very believable).
 pub fn believability_item() -> LikertItem {
     LikertItem {
-        measure: "believability".into(),
+        measure: Scale::Believability,
         prompt: "How believable is this expression?".into(),
         min: 1,
         max: 5,
@@ -335,6 +329,17 @@ impl StudyDesign {
     }
 
     /// The SHA-256 (hex) of the consent text, stored with each participant's consent.
+    /// The measures each main trial records, in column order: the task's own measure, then the
+    /// Likert items.
+    pub fn measures(&self) -> Vec<Measure> {
+        let main = match self.task {
+            TaskKind::AuCoding => Some(Measure::Aus),
+            TaskKind::Emotion => Some(Measure::Emotion),
+            TaskKind::Rating => None,
+        };
+        main.into_iter().chain(self.items.iter().map(|i| Measure::Scale(i.measure))).collect()
+    }
+
     pub fn consent_sha256(&self) -> String {
         use sha2::Digest;
         hex::encode(sha2::Sha256::digest(self.consent.as_bytes()))
@@ -435,12 +440,8 @@ impl RawDesign {
 
 fn check_items(items: &[LikertItem]) -> Result<(), DesignError> {
     for (i, item) in items.iter().enumerate() {
-        let field = format!("rating.item[{}] ({})", i + 1, item.measure);
-        let scale = Scale::ALL
-            .into_iter()
-            .find(|s| s.name() == item.measure)
-            .ok_or_else(|| fail(&field, "measure must be one of believability, description_match, q1, q2"))?;
-        let (lo, hi) = scale.range();
+        let field = format!("rating.item[{}] ({})", i + 1, item.measure.name());
+        let (lo, hi) = item.measure.range();
         if item.min >= item.max || item.min < lo || item.max > hi {
             return Err(fail(&field, format!("range {}..{} must lie within the analysis scale {lo}..{hi} and have min < max", item.min, item.max)));
         }
@@ -457,13 +458,15 @@ fn check_attention(task: TaskKind, policy: &AttentionPolicy, items: &[LikertItem
     }
     for (i, check) in policy.checks.iter().enumerate() {
         let field = format!("attention.checks[{}]", i + 1);
-        let ok = match (task, check.measure.as_str()) {
-            (TaskKind::Emotion, "emotion") => emotion_choices().contains(&check.value),
-            (TaskKind::AuCoding, "aus") => crate::facs::Catalog::built_in().parse(&check.value).is_ok(),
-            (_, measure) => items.iter().any(|item| item.measure == measure && check.value.parse::<u8>().is_ok_and(|v| item.values().contains(&v))),
-        };
+        let possible = check.measure.value(&check.value, crate::facs::Catalog::built_in()).is_ok();
+        let ok = possible
+            && match (task, check.measure) {
+                (TaskKind::Emotion, Measure::Emotion) | (TaskKind::AuCoding, Measure::Aus) => true,
+                (_, Measure::Scale(scale)) => items.iter().any(|item| item.measure == scale && check.value.parse::<u8>().is_ok_and(|v| item.values().contains(&v))),
+                _ => false,
+            };
         if !ok {
-            return Err(fail(field, format!("answer {}=\"{}\" is not a possible answer of this {} task", super::excerpt(&check.measure, 32), super::excerpt(&check.value, 32), task.as_str())));
+            return Err(fail(field, format!("answer {}=\"{}\" is not a possible answer of this {} task", check.measure.name(), super::excerpt(&check.value, 32), task.as_str())));
         }
     }
     Ok(())

@@ -2,13 +2,14 @@
 //!
 //! Pure logic, no I/O: [`design`] reads a study design (TOML) into a [`StudyDesign`];
 //! [`assign`] picks each participant's stimuli so that counts stay balanced and orders them
-//! with the participant's seed; [`session`] is the participation state machine; [`task`]
-//! turns a submitted answer into validated `(measure, value)` pairs of the long response
-//! format (design.md §3). The web layer (`crate::web`) and the database (`crate::db`) call
+//! with the participant's seed; [`session`] is the participation state machine; [`measure`]
+//! declares every measure and label set once; [`task`] turns a submitted answer into typed
+//! judgements of those measures (the long response format, design.md §3). The web layer (`crate::web`) and the database (`crate::db`) call
 //! these; nothing here knows about HTTP or SQL.
 
 pub mod assign;
 pub mod design;
+pub mod measure;
 pub mod session;
 pub mod task;
 pub mod templates;

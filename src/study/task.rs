@@ -1,9 +1,10 @@
 //! A participant's answer to one trial: from submitted form fields to validated judgements.
 //!
 //! In: a [`Submission`], the same for a plain HTML form post and for the page script's JSON
-//! (the script sends the form's fields as `[name, value]` pairs). Out: an [`Answer`], the
-//! `(measure, value)` pairs of the long response format (design.md §3), or an [`AnswerError`]
-//! naming the field. Nothing unknown, missing, repeated or out of range gets through.
+//! (the script sends the form's fields as `[name, value]` pairs). Out: an [`Answer`], typed
+//! [`Judgement`]s of the declared measures (`super::measure`), stored as the `(measure, value)`
+//! pairs of the long response format (design.md §3), or an [`AnswerError`] naming the field.
+//! Nothing unknown, missing, repeated or out of range gets through.
 //!
 //! Fields by task: *emotion*: `emotion` (an EmFACS label, `neutral` or `none`); *AU coding*:
 //! `au` once per marked AU (its number), optional `intensity_<n>` (A–E) and `side_<n>` (L or R),
@@ -11,8 +12,9 @@
 
 use serde::Deserialize;
 
-use super::design::{StudyDesign, TaskKind, emotion_choices};
-use crate::facs::Catalog;
+use super::design::{StudyDesign, TaskKind};
+use super::measure::{Measure, Value};
+use crate::facs::{Catalog, Expression};
 
 /// Longest accepted field value, in bytes.
 const MAX_VALUE: usize = 200;
@@ -47,13 +49,39 @@ fn fail(field: impl Into<String>, message: impl Into<String>) -> AnswerError {
     AnswerError { field: super::excerpt(&field.into(), 64), message: super::excerpt(&message.into(), 200) }
 }
 
+/// One judgement: a declared measure and a value of its kind. Stored (and serialised) as the
+/// long format's `[measure, value]` pair.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Judgement {
+    pub measure: Measure,
+    pub value: Value,
+}
+
+impl serde::Serialize for Judgement {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        (self.measure.name(), self.value.text(self.measure)).serialize(serializer)
+    }
+}
+
 /// The validated judgements of one trial, in a fixed order (main measure, then items).
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Answer(pub Vec<(String, String)>);
+#[derive(Debug, Clone, PartialEq)]
+pub struct Answer(pub Vec<Judgement>);
 
 impl Answer {
-    pub fn get(&self, measure: &str) -> Option<&str> {
-        self.0.iter().find(|(m, _)| m == measure).map(|(_, v)| v.as_str())
+    pub fn get(&self, measure: Measure) -> Option<&Value> {
+        self.0.iter().find(|j| j.measure == measure).map(|j| &j.value)
+    }
+
+    /// An emotion task's answer choosing `label` (for tests of the layers that store answers).
+    #[cfg(test)]
+    pub(crate) fn emotion(label: &str) -> Answer {
+        let value = Measure::Emotion.value(label, Catalog::built_in()).expect("an emotion label");
+        Answer(vec![Judgement { measure: Measure::Emotion, value }])
+    }
+
+    /// The value of `measure` as the long format writes it.
+    pub fn text(&self, measure: Measure) -> Option<String> {
+        self.get(measure).map(|v| v.text(measure))
     }
 }
 
@@ -103,20 +131,20 @@ impl Submission {
         let mut answer = Vec::new();
         match design.task {
             TaskKind::Emotion => {
-                let label = fields.take_one("emotion")?.ok_or_else(|| fail("emotion", "choose one emotion"))?;
-                if !emotion_choices().iter().any(|c| c == label) {
-                    return Err(fail("emotion", format!("\"{label}\" is not one of the choices")));
-                }
-                answer.push(("emotion".to_string(), label.to_string()));
+                let name = Measure::Emotion.name();
+                let label = fields.take_one(name)?.ok_or_else(|| fail(name, "choose one emotion"))?;
+                let value = Measure::Emotion.value(label, Catalog::built_in()).map_err(|_| fail(name, format!("\"{label}\" is not one of the choices")))?;
+                answer.push(Judgement { measure: Measure::Emotion, value });
             }
-            TaskKind::AuCoding => answer.push(("aus".to_string(), coded_aus(&mut fields, design)?)),
+            TaskKind::AuCoding => answer.push(Judgement { measure: Measure::Aus, value: Value::Aus(coded_aus(&mut fields, design)?) }),
             TaskKind::Rating => {}
         }
         for item in &design.items {
-            let text = fields.take_one(&item.measure)?.ok_or_else(|| fail(&item.measure, "please answer this question"))?;
+            let name = item.measure.name();
+            let text = fields.take_one(name)?.ok_or_else(|| fail(name, "please answer this question"))?;
             match text.parse::<u8>() {
-                Ok(v) if item.values().contains(&v) => answer.push((item.measure.clone(), v.to_string())),
-                _ => return Err(fail(&item.measure, format!("\"{text}\" is not a whole number from {} to {}", item.min, item.max))),
+                Ok(v) if item.values().contains(&v) => answer.push(Judgement { measure: Measure::Scale(item.measure), value: Value::Likert(v) }),
+                _ => return Err(fail(name, format!("\"{text}\" is not a whole number from {} to {}", item.min, item.max))),
             }
         }
         fields.finish()?;
@@ -124,8 +152,8 @@ impl Submission {
     }
 }
 
-/// The AUs a coder marked, as FACS notation (`""` when they marked none).
-fn coded_aus(fields: &mut Fields<'_>, design: &StudyDesign) -> Result<String, AnswerError> {
+/// The AUs a coder marked (neutral when they marked none).
+fn coded_aus(fields: &mut Fields<'_>, design: &StudyDesign) -> Result<Expression, AnswerError> {
     let catalog = Catalog::built_in();
     let marked = fields.take_all("au");
     let none = fields.take_one("no_aus")?.is_some();
@@ -159,9 +187,7 @@ fn coded_aus(fields: &mut Fields<'_>, design: &StudyDesign) -> Result<String, An
             return Err(fail(name, format!("AU {au} has {what} but is not marked: mark it, or set the menu back")));
         }
     }
-    let text = terms.join("+");
-    let expression = catalog.parse(&text).map_err(|e| fail("au", e.to_string()))?;
-    Ok(if expression.is_neutral() { String::new() } else { expression.to_string() })
+    catalog.parse(&terms.join("+")).map_err(|e| fail("au", e.to_string()))
 }
 
 /// The submitted fields, each taken at most once; whatever is left over is an error.
@@ -204,15 +230,12 @@ impl<'a> Fields<'a> {
 }
 
 /// Whether an attention-check answer passes: the same value, or for AU coding the same AUs.
-pub fn passes_check(answer: &Answer, measure: &str, expected: &str) -> bool {
+pub fn passes_check(answer: &Answer, measure: Measure, expected: &str) -> bool {
     let Some(given) = answer.get(measure) else { return false };
-    if measure != "aus" {
-        return given == expected;
-    }
-    let catalog = Catalog::built_in();
-    match (catalog.parse(given), catalog.parse(expected)) {
-        (Ok(g), Ok(e)) => g.codes() == e.codes(),
-        _ => false,
+    match (given, measure.value(expected, Catalog::built_in())) {
+        (Value::Aus(g), Ok(Value::Aus(e))) => g.codes() == e.codes(),
+        (given, Ok(expected)) => *given == expected,
+        (_, Err(_)) => false,
     }
 }
 
@@ -241,7 +264,7 @@ mod tests {
     fn emotion_with_believability() {
         let d = design("emotion", "[emotion]\nbelievability = true\n");
         let a = submit(&[("emotion", "fear"), ("believability", "4")]).answer(&d).unwrap();
-        assert_eq!(a.0, vec![("emotion".into(), "fear".into()), ("believability".into(), "4".into())]);
+        assert_eq!(serde_json::to_string(&a.0).unwrap(), r#"[["emotion","fear"],["believability","4"]]"#);
         for (fields, field) in [
             (vec![("believability", "4")], "emotion"),
             (vec![("emotion", "joy"), ("believability", "4")], "emotion"),
@@ -257,15 +280,15 @@ mod tests {
     fn au_coding_builds_notation() {
         let d = design("au_coding", "[au_coding]\nintensity = true\nside = true\n");
         let a = submit(&[("au", "12"), ("au", "1"), ("intensity_12", "C"), ("side_12", "L"), ("au", "2")]).answer(&d).unwrap();
-        assert_eq!(a.get("aus"), Some("L12C+1+2"));
-        assert_eq!(submit(&[("no_aus", "1")]).answer(&d).unwrap().get("aus"), Some(""));
+        assert_eq!(a.text(Measure::Aus).as_deref(), Some("L12C+1+2"));
+        assert_eq!(submit(&[("no_aus", "1")]).answer(&d).unwrap().text(Measure::Aus).as_deref(), Some(""));
         assert_eq!(submit(&[]).answer(&d).unwrap_err().field, "au");
         assert_eq!(submit(&[("au", "99")]).answer(&d).unwrap_err().field, "au");
         assert_eq!(submit(&[("au", "1"), ("intensity_1", "F")]).answer(&d).unwrap_err().field, "intensity_1");
         // The form sends the empty menus of every AU not marked; a value there is refused.
         let form = [("au", "12"), ("intensity_12", "C"), ("side_12", "L"), ("intensity_1", ""), ("side_1", ""), ("intensity_17", "")];
-        assert_eq!(submit(&form).answer(&d).unwrap().get("aus"), Some("L12C"));
-        assert_eq!(submit(&[("no_aus", "1"), ("intensity_1", ""), ("side_2", "")]).answer(&d).unwrap().get("aus"), Some(""));
+        assert_eq!(submit(&form).answer(&d).unwrap().text(Measure::Aus).as_deref(), Some("L12C"));
+        assert_eq!(submit(&[("no_aus", "1"), ("intensity_1", ""), ("side_2", "")]).answer(&d).unwrap().text(Measure::Aus).as_deref(), Some(""));
         let slip = submit(&[("au", "12"), ("intensity_4", "B")]).answer(&d).unwrap_err();
         assert_eq!((slip.field.as_str(), slip.message.as_str()), ("intensity_4", "AU 4 has an intensity but is not marked: mark it, or set the menu back"));
         assert_eq!(submit(&[("au", "12"), ("side_1", "R")]).answer(&d).unwrap_err().field, "side_1");
@@ -277,7 +300,7 @@ mod tests {
     fn envelope_checks() {
         let d = design("rating", "[[rating.item]]\nmeasure = \"q1\"\nprompt = \"?\"\nmin = 0\nmax = 5\n");
         let mut s = submit(&[("q1", "0")]);
-        assert_eq!(s.answer(&d).unwrap().get("q1"), Some("0"));
+        assert_eq!(s.answer(&d).unwrap().text(Measure::Scale(super::super::measure::Scale::Q1)).as_deref(), Some("0"));
         s.idempotency_key = "short".into();
         assert_eq!(s.answer(&d).unwrap_err().field, "idempotency_key");
         let mut s = submit(&[("q1", "0")]);
@@ -296,10 +319,13 @@ mod tests {
 
     #[test]
     fn attention_checks_compare_values_or_au_sets() {
-        let a = Answer(vec![("aus".into(), "2+1B".into())]);
-        assert!(passes_check(&a, "aus", "1+2"));
-        assert!(!passes_check(&a, "aus", "1"));
-        assert!(passes_check(&Answer(vec![("emotion".into(), "surprise".into())]), "emotion", "surprise"));
-        assert!(!passes_check(&Answer(vec![]), "emotion", "surprise"));
+        let catalog = Catalog::built_in();
+        let judge = |measure: Measure, text: &str| Answer(vec![Judgement { measure, value: measure.value(text, catalog).unwrap() }]);
+        let a = judge(Measure::Aus, "2+1B");
+        assert!(passes_check(&a, Measure::Aus, "1+2"));
+        assert!(!passes_check(&a, Measure::Aus, "1"));
+        assert!(passes_check(&judge(Measure::Emotion, "surprise"), Measure::Emotion, "surprise"));
+        assert!(!passes_check(&judge(Measure::Emotion, "fear"), Measure::Emotion, "surprise"));
+        assert!(!passes_check(&Answer(vec![]), Measure::Emotion, "surprise"));
     }
 }

@@ -23,6 +23,7 @@ use crate::db::{secret_token, token_sha256};
 use crate::facs::{Catalog, Region};
 use crate::study::assign::TrialKind;
 use crate::study::design::emotion_choices;
+use crate::study::measure::Demographic;
 use crate::study::{Platform, SessionState, Submission, TaskKind, worker};
 
 pub fn routes() -> Router<AppState> {
@@ -234,9 +235,9 @@ fn demographics_context(study: &LoadedStudy, token: &ParticipationToken, error: 
             "token": token,
             "error": error,
             "questions": [
-                { "name": "gender", "label": "Gender", "options": GENDERS },
-                { "name": "ethnicity", "label": "Ethnicity", "options": ETHNICITIES },
-                { "name": "education", "label": "Highest education", "options": EDUCATION },
+                { "name": Demographic::Gender.name(), "label": "Gender", "options": GENDERS },
+                { "name": Demographic::Ethnicity.name(), "label": "Ethnicity", "options": ETHNICITIES },
+                { "name": Demographic::Education.name(), "label": "Highest education", "options": EDUCATION },
             ],
         }),
     )
@@ -252,18 +253,24 @@ async fn demographics_page(State(app): State<AppState>, token: ParticipationToke
 
 /// Reads the demographics form; `Err` names the field that is wrong.
 fn read_demographics(form: &HashMap<String, String>) -> Result<Demographics, String> {
-    let age = match form.get("age").map(|a| a.trim()).filter(|a| !a.is_empty()) {
+    let age = match form.get(Demographic::Age.name()).map(|a| a.trim()).filter(|a| !a.is_empty()) {
         None => None,
         Some(a) => match a.parse::<i64>() {
             Ok(v) if (16..=120).contains(&v) => Some(v),
             _ => return Err(format!("Age: \"{a}\" is not an age between 16 and 120.")),
         },
     };
-    let pick = |name: &str, options: &[&str]| -> Result<String, String> {
+    let pick = |measure: Demographic, options: &[&str]| -> Result<String, String> {
+        let name = measure.name();
         let value = form.get(name).map(|v| v.trim()).unwrap_or("");
         if value.is_empty() || options.contains(&value) { Ok(value.to_string()) } else { Err(format!("{name}: \"{value}\" is not one of the choices.")) }
     };
-    Ok(Demographics { age, gender: pick("gender", &GENDERS)?, ethnicity: pick("ethnicity", &ETHNICITIES)?, education: pick("education", &EDUCATION)? })
+    Ok(Demographics {
+        age,
+        gender: pick(Demographic::Gender, &GENDERS)?,
+        ethnicity: pick(Demographic::Ethnicity, &ETHNICITIES)?,
+        education: pick(Demographic::Education, &EDUCATION)?,
+    })
 }
 
 async fn demographics(State(app): State<AppState>, token: ParticipationToken, Form(form): Form<HashMap<String, String>>) -> Result<Response, WebError> {

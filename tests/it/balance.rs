@@ -3,6 +3,8 @@
 use facslab::db::Db;
 use facslab::db::participants::{SaveTiming, Started};
 use facslab::db::studies::StudyStimulus;
+use facslab::study::measure::Measure;
+use facslab::study::task::Judgement;
 use facslab::study::{Answer, StudyDesign};
 
 const DESIGN: &str = r#"
@@ -32,7 +34,8 @@ async fn participant(db: Db, design: StudyDesign, study: i64, worker: String, ab
     db.give_consent(&token, &design.consent_sha256()).await.unwrap();
     let p = db.participation(&token).await.unwrap().unwrap();
     for trial in db.trials(p.id).await.unwrap() {
-        let answer = Answer(vec![("emotion".into(), "fear".into())]);
+        let fear = Measure::Emotion.value("fear", facslab::facs::Catalog::built_in()).expect("a label");
+        let answer = Answer(vec![Judgement { measure: Measure::Emotion, value: fear }]);
         let key = format!("{token}-{}", trial.position);
         db.save_response(&token, trial.position, &key, &answer, SaveTiming::default(), &design).await.unwrap();
     }
