@@ -38,6 +38,32 @@ pub mod stats;
 
 pub use input::{InputError, is_parquet};
 
+use coding::{CodingOptions, CodingReport};
+use rating::RatingReport;
+
+/// Every section of an analysis of one study.
+#[derive(Debug, Clone)]
+pub struct Analysis {
+    /// Exp. 1–2: coders against the ground truth (Tables 1–4); absent without `aus` answers.
+    pub coding: Option<CodingReport>,
+    /// Exp. 3–4: lay raters (Tables 7–14); absent without emotion answers or ratings.
+    pub rating: Option<RatingReport>,
+    /// Table 6; absent when nobody stated demographics.
+    pub demographics: Option<demographics::Demographics>,
+}
+
+/// The whole analysis of validated responses against their manifest. No I/O: the responses come
+/// from a file ([`responses::Responses::read`]) or straight from a study's database
+/// ([`responses::Responses::from_rows`]), and the report renders the result.
+pub fn analyze(manifest: &manifest::Manifest, responses: &responses::Responses, options: &CodingOptions) -> Analysis {
+    let catalog = crate::facs::Catalog::built_in();
+    Analysis {
+        coding: coding::analyze(manifest, responses, catalog, *options),
+        rating: rating::analyze(manifest, responses),
+        demographics: demographics::analyze(manifest, responses),
+    }
+}
+
 /// Test inputs written inline: manifest and response rows under their standard headers.
 #[cfg(test)]
 pub(crate) fn fixture(manifest_rows: &str, response_rows: &str) -> (manifest::Manifest, responses::Responses) {

@@ -477,6 +477,38 @@ mod tests {
     }
 
     #[test]
+    fn typed_rows_read_as_their_csv_does() {
+        let body = "c1,coders,s1,1,aus,1+2+R14,1200\nc1,coders,,,age,36,\np1,amt,s2,1,emotion,happiness,900.5\np1,amt,s2,1,believability,4,\n";
+        let from_file = read(body).unwrap();
+        let (catalog, emotions) = (Catalog::built_in(), EmotionTable::built_in());
+        let manifest = Manifest::from_csv("m.csv", MANIFEST, catalog, &emotions).unwrap();
+        let row = |pid: &str, group: &str, sid: &str, trial: Option<i64>, measure: Measure, value: &str, rt_ms: Option<f64>| LongRow {
+            participant_id: pid.into(),
+            group: group.into(),
+            stimulus_id: sid.into(),
+            trial,
+            measure,
+            value: value.into(),
+            rt_ms,
+        };
+        let rows = [
+            row("c1", "coders", "s1", Some(1), Measure::Aus, "1+2+R14", Some(1200.0)),
+            row("c1", "coders", "", None, Measure::Demographic(Demographic::Age), "36", None),
+            row("p1", "amt", "s2", Some(1), Measure::Emotion, "happiness", Some(900.5)),
+            row("p1", "amt", "s2", Some(1), Measure::Scale(Scale::Believability), "4", None),
+        ];
+        let mut text = LONG_HEADER.to_string();
+        rows.iter().for_each(|r| r.write_csv(&mut text));
+        assert_eq!(text, format!("{HEADER}{body}"));
+        let typed = Responses::from_rows("db", &rows, &manifest, catalog).unwrap();
+        assert_eq!(format!("{typed:?}"), format!("{from_file:?}"));
+        let mut twice = rows.to_vec();
+        twice.push(rows[2].clone());
+        let e = Responses::from_rows("db", &twice, &manifest, catalog).unwrap_err().to_string();
+        assert!(e.contains("db: row 5 (line 6), column \"measure\": participant \"p1\" already gave \"emotion\""), "{e}");
+    }
+
+    #[test]
     fn invalid_utf8_names_row_and_column() {
         let (catalog, emotions) = (Catalog::built_in(), EmotionTable::built_in());
         let manifest = Manifest::from_csv("m.csv", MANIFEST, catalog, &emotions).unwrap();

@@ -301,29 +301,34 @@ pub struct ReportArgs {
     pub match_intensity: bool,
 }
 
-/// `facslab report --study`: the study's long export and its set's manifest, through `analyze`.
-/// The responses used are kept beside the report as `responses.csv`.
+/// `facslab report --study`: the study's judgements and its set's manifest, analysed in memory
+/// as `facslab analyze` analyses files. The rows used are kept beside the report as
+/// `OUTPUT.inputs/responses.csv` (the same bytes as `facslab export`), for the record only.
 pub fn report_command(args: ReportArgs) -> anyhow::Result<()> {
-    let (text, set_dir) = runtime()?.block_on(async {
+    let started = std::time::Instant::now();
+    let scope = if args.all { Scope::All } else { Scope::Completed };
+    let (rows, set_dir) = runtime()?.block_on(async {
         let db = open(&args.db).await?;
         let row = db.study_by_slug(&args.study).await?.with_context(|| format!("no study \"{}\" in {}", args.study, args.db.display()))?;
-        let text = export_text(&db, &args.study, "responses.csv", if args.all { Scope::All } else { Scope::Completed }).await?;
-        anyhow::Ok((text, PathBuf::from(row.set_dir)))
+        anyhow::Ok((db.long_rows(row.id, scope).await?, PathBuf::from(row.set_dir)))
     })?;
-    if text.lines().count() < 2 {
+    if rows.is_empty() {
         bail!("study \"{}\" has no responses to analyse yet (only completed, non-excluded participants count; --all adds the rest)", args.study);
     }
+    let (catalog, emotions) = (crate::facs::Catalog::built_in(), crate::facs::EmotionTable::built_in());
+    let manifest_path = set_dir.join("manifest.csv");
+    let manifest = crate::analysis::manifest::Manifest::read(&manifest_path, catalog, &emotions)?;
+    let responses = crate::analysis::responses::Responses::from_rows("responses.csv", &rows, &manifest, catalog)?;
+    let options = crate::analysis::coding::CodingOptions { match_side: args.match_side, match_intensity: args.match_intensity };
+    let report = crate::report::build(&manifest, &responses, catalog, options, std::path::Path::new("responses.csv"), &manifest_path);
+    crate::report::write(&report, &args.output)?;
+    let mut text = crate::analysis::responses::LONG_HEADER.to_string();
+    rows.iter().for_each(|r| r.write_csv(&mut text));
     let inputs = args.output.with_extension("inputs");
-    std::fs::create_dir_all(&inputs)?;
-    let responses = inputs.join("responses.csv");
-    crate::stimuli::build::write_atomic(&responses, text.as_bytes())?;
-    crate::analysis::cli::analyze(crate::analysis::cli::AnalyzeArgs {
-        responses,
-        manifest: set_dir.join("manifest.csv"),
-        output: args.output,
-        match_side: args.match_side,
-        match_intensity: args.match_intensity,
-    })
+    std::fs::create_dir_all(&inputs).with_context(|| format!("creating {}", inputs.display()))?;
+    crate::stimuli::build::write_atomic(&inputs.join("responses.csv"), text.as_bytes())?;
+    eprintln!("analysed {} rows in {:.2} s; report in {}", responses.rows, started.elapsed().as_secs_f64(), args.output.display());
+    Ok(())
 }
 
 /// `facslab demo`: the demo set, two open demo studies, an admin account, the server.

@@ -71,6 +71,9 @@ async fn study_participant_completes_and_admin_exports_the_long_csv() {
     facslab_ok(lab.path(), &["report", "--study", "emo", "--db", "lab.db", "-o", "from-db"]);
     assert_eq!(std::fs::read_to_string(lab.path().join("from-db.inputs/responses.csv")).unwrap(), csv);
     assert!(lab.path().join("from-db/report.html").is_file());
+    // Analysed in memory from the database, the report is the one of the exported file.
+    let read = |dir: &str| std::fs::read_to_string(lab.path().join(dir).join("report.json")).unwrap();
+    assert_eq!(read("from-db"), read("report"));
 }
 
 #[tokio::test(flavor = "multi_thread")]
