@@ -8,7 +8,6 @@ use anyhow::{Context, bail};
 use clap::{Parser, Subcommand, ValueEnum};
 
 use crate::engine::identity::{Identity, IdentityTable};
-use crate::engine::image::RgbImage;
 use crate::engine::look::{Backdrop, Look};
 use crate::engine::sheet::ContactSheet;
 use crate::engine::{self, FrameSettings};
@@ -409,7 +408,7 @@ fn dispatch(command: Command) -> anyhow::Result<()> {
                 let (width, height) = size.unwrap_or(engine::DEFAULT_SIZE);
                 let settings = FrameSettings { width, height, threads, look: look.into() };
                 let frame = engine::render_frame(&expression, identity, settings)?;
-                return write_png_bytes(&frame.encode_png(), &output);
+                return write_png(&frame.encode_png(), &output);
             }
             let timeline = match timeline {
                 Some(path) => {
@@ -497,7 +496,7 @@ fn dispatch(command: Command) -> anyhow::Result<()> {
                 SheetSet::Aus => au_sheet(IdentityTable::active().get(&identity)?, settings, columns)?,
                 SheetSet::Emotions => emotion_sheet(settings, columns)?,
             };
-            write_png(&sheet.compose(), &output)
+            write_png(&sheet.compose().encode_png(), &output)
         }
         Command::Analyze(args) => crate::analysis::cli::analyze(args),
         Command::Simulate(args) => crate::analysis::cli::simulate(args),
@@ -547,12 +546,8 @@ fn check_png_path(path: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Writes the PNG next to its destination first and renames it, so a failure leaves no file.
-fn write_png(image: &RgbImage, path: &Path) -> anyhow::Result<()> {
-    write_png_bytes(&image.encode_png(), path)
-}
-
-fn write_png_bytes(bytes: &[u8], path: &Path) -> anyhow::Result<()> {
+/// Writes PNG bytes next to their destination first and renames them, so a failure leaves no file.
+fn write_png(bytes: &[u8], path: &Path) -> anyhow::Result<()> {
     let partial = path.with_extension("png.partial");
     std::fs::write(&partial, bytes).with_context(|| format!("writing {}", partial.display()))?;
     std::fs::rename(&partial, path).with_context(|| format!("moving the image into place at {}", path.display()))
@@ -620,7 +615,7 @@ fn render_timeline_video(timeline: &Timeline, output: &Path, threads: Option<usi
     stimuli::build::write_atomic(output, &bytes)?;
     if let (Some(path), Some(image)) = (poster, first) {
         check_png_path(path)?;
-        write_png(&image, path)?;
+        write_png(&image.encode_png(), path)?;
     }
     let (w, h) = engine::video::even_size(timeline.size[0], timeline.size[1]);
     if (w, h) != (timeline.size[0], timeline.size[1]) {
