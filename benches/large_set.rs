@@ -7,7 +7,7 @@
 use std::path::Path;
 use std::time::Instant;
 
-use facslab::stimuli::{self, BuildOptions, SetSpec, Shard};
+use facslab::stimuli::{self, BuildOptions, DitherKey, Dithering, SetSpec, Shard};
 
 /// AUs combined in pairs (upper with lower face and within each), in catalog order.
 const AUS: [&str; 24] = ["1", "2", "4", "5", "6", "7", "9", "10", "11", "12", "13", "14", "15", "16", "17", "18", "20", "22", "23", "24", "25", "26", "27", "28"];
@@ -47,7 +47,8 @@ fn ten_thousand_stills_one_build_vs_four_shards() {
     assert_eq!(spec.entries.len(), stills);
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     let dir = tempfile::tempdir().expect("a temporary directory");
-    let options = BuildOptions { jobs: None, progress: false };
+    let key = DitherKey::generate().expect("a dither key");
+    let options = BuildOptions { jobs: None, progress: false, dither: Dithering::Key(key) };
     let root = dir.path();
     let (_, whole) = timed("one build", || stimuli::build(&spec, &root.join("whole"), &options).expect("builds"));
     let mut sharded = 0.0;

@@ -38,7 +38,7 @@ fn cpu_time_report() {
     let camera = camera();
     println!("{} triangles, {}x{}", mesh.indices.len(), camera.width, camera.height);
     if let Some(path) = std::env::var_os("RENDER_PNG") {
-        render(&scene, &camera, &Lambert, &RenderOptions::default()).write_png(&path).expect("write PNG");
+        std::fs::write(&path, render(&scene, &camera, &Lambert, &RenderOptions::default()).encode_png()).expect("write PNG");
         println!("wrote {}", path.to_string_lossy());
     }
     for spp in [4, 8, 16] {

@@ -8,7 +8,6 @@ use anyhow::{Context, bail};
 use clap::{Parser, Subcommand, ValueEnum};
 
 use crate::engine::identity::{Identity, IdentityTable};
-use crate::engine::image::RgbImage;
 use crate::engine::look::{Backdrop, Look};
 use crate::engine::sheet::ContactSheet;
 use crate::engine::{self, FrameSettings};
@@ -185,7 +184,7 @@ enum Command {
 #[derive(Subcommand)]
 enum StimuliCommand {
     /// Render a stimulus set: media with opaque names, manifest.csv/json, per-frame ground truth.
-    #[command(after_help = "Examples:\n  facslab stimuli build stimuli/sets/demo.toml -o demo-set\n  facslab stimuli build stimuli/sets/exp1.toml -o exp1 --jobs 2\n\nThe spec is validated completely before anything renders. Files already up to date\n(same manifest row, same sha256 on disk) are kept. Output layout: manifest.csv,\nmanifest.json, media/<id>.png|mp4, posters/, ground_truth/<id>.csv, timelines/<id>.json.")]
+    #[command(after_help = "Examples:\n  facslab stimuli build stimuli/sets/demo.toml -o demo-set\n  facslab stimuli build stimuli/sets/exp1.toml -o exp1 --jobs 2\n  facslab stimuli build stimuli/sets/exp1.toml -o exp1 --dither-key exp1.key\n\nThe spec is validated completely before anything renders. Files already up to date\n(same manifest row, same sha256 on disk) are kept. Output layout: manifest.csv,\nmanifest.json, media/<id>.png|mp4, posters/, ground_truth/<id>.csv, timelines/<id>.json,\ndither.key.\n\nMedia and posters are dithered (each colour channel moved by at most 1 of 255) with the set's\nsecret key, so they differ from a public `facslab render` of the same expression. The key is\nmade on the first build and kept in OUTPUT/dither.key (never served): keep it private and\nback it up with the set, the same spec, seed and key rebuild the same bytes.")]
     Build {
         /// The set specification (TOML).
         spec: PathBuf,
@@ -199,6 +198,20 @@ enum StimuliCommand {
         /// job array; join the parts with `stimuli merge`.
         #[arg(long, value_name = "K/N")]
         shard: Option<stimuli::Shard>,
+        /// Dither with the key in this file (from `facslab stimuli key`) instead of OUTPUT/dither.key;
+        /// needed with --shard, so that the parts of a set share one key.
+        #[arg(long, value_name = "FILE", conflicts_with = "no_dither")]
+        dither_key: Option<PathBuf>,
+        /// No dither and no key: the media are the bytes `facslab render` writes.
+        #[arg(long)]
+        no_dither: bool,
+    },
+    /// Write a new secret dither key, for the shards of one set (`stimuli build --dither-key`).
+    #[command(after_help = "Example:\n  facslab stimuli key -o exp1.key\n  facslab stimuli build stimuli/sets/exp1.toml -o part1 --shard 1/2 --dither-key exp1.key\n\n32 bytes from the operating system's randomness, as 64 hex digits (file mode 0600).\nThe key is never printed; an existing file is never overwritten.")]
+    Key {
+        /// The key file to create.
+        #[arg(short, long)]
+        output: PathBuf,
     },
     /// Join the shards of one set (built with --shard K/N) into the set one machine would build.
     #[command(after_help = "Examples:\n  facslab stimuli build stimuli/sets/exp1.toml -o part1 --shard 1/2\n  facslab stimuli build stimuli/sets/exp1.toml -o part2 --shard 2/2\n  facslab stimuli merge part1 part2 -o exp1\n\nEvery part K of N must be given once, all built from the same spec, seed and facslab\nversion; each media file is checked against its sha256. The result is byte for byte the\ndirectory `stimuli build` writes on one machine. docs/cluster.md has Slurm and Kubernetes\nexamples.")]
@@ -409,7 +422,7 @@ fn dispatch(command: Command) -> anyhow::Result<()> {
                 let (width, height) = size.unwrap_or(engine::DEFAULT_SIZE);
                 let settings = FrameSettings { width, height, threads, look: look.into() };
                 let frame = engine::render_frame(&expression, identity, settings)?;
-                return write_png_bytes(&frame.encode_png(), &output);
+                return write_png(&frame.encode_png(), &output);
             }
             let timeline = match timeline {
                 Some(path) => {
@@ -464,10 +477,20 @@ fn dispatch(command: Command) -> anyhow::Result<()> {
             eprintln!("{} shards merged: {} stimuli, {} files in {}", summary.shards, summary.stimuli, summary.files, output.display());
             Ok(())
         }
-        Command::Stimuli(StimuliCommand::Build { spec, output, jobs, shard }) => {
+        Command::Stimuli(StimuliCommand::Key { output }) => {
+            let key = stimuli::DitherKey::create_file(&output)?;
+            eprintln!("wrote a new dither key to {} (fingerprint {}); keep it private", output.display(), key.fingerprint());
+            Ok(())
+        }
+        Command::Stimuli(StimuliCommand::Build { spec, output, jobs, shard, dither_key, no_dither }) => {
             let set = SetSpec::load(&spec)?;
             let started = std::time::Instant::now();
-            let options = stimuli::BuildOptions { jobs, progress: true };
+            let dither = match (dither_key, no_dither) {
+                (_, true) => stimuli::Dithering::Off,
+                (Some(path), false) => stimuli::Dithering::Key(stimuli::DitherKey::read(&path)?),
+                (None, false) => stimuli::Dithering::SetKey,
+            };
+            let options = stimuli::BuildOptions { jobs, progress: true, dither };
             let summary = match shard {
                 Some(shard) => stimuli::build_shard(&set, shard, &output, &options).map_err(anyhow::Error::from),
                 None => stimuli::build(&set, &output, &options).map_err(anyhow::Error::from),
@@ -497,7 +520,7 @@ fn dispatch(command: Command) -> anyhow::Result<()> {
                 SheetSet::Aus => au_sheet(IdentityTable::active().get(&identity)?, settings, columns)?,
                 SheetSet::Emotions => emotion_sheet(settings, columns)?,
             };
-            write_png(&sheet.compose(), &output)
+            write_png(&sheet.compose().encode_png(), &output)
         }
         Command::Analyze(args) => crate::analysis::cli::analyze(args),
         Command::Simulate(args) => crate::analysis::cli::simulate(args),
@@ -547,12 +570,8 @@ fn check_png_path(path: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Writes the PNG next to its destination first and renames it, so a failure leaves no file.
-fn write_png(image: &RgbImage, path: &Path) -> anyhow::Result<()> {
-    write_png_bytes(&image.encode_png(), path)
-}
-
-fn write_png_bytes(bytes: &[u8], path: &Path) -> anyhow::Result<()> {
+/// Writes PNG bytes next to their destination first and renames them, so a failure leaves no file.
+fn write_png(bytes: &[u8], path: &Path) -> anyhow::Result<()> {
     let partial = path.with_extension("png.partial");
     std::fs::write(&partial, bytes).with_context(|| format!("writing {}", partial.display()))?;
     std::fs::rename(&partial, path).with_context(|| format!("moving the image into place at {}", path.display()))
@@ -599,7 +618,7 @@ fn render_timeline_video(timeline: &Timeline, output: &Path, threads: Option<usi
     let total = timeline.frame_count();
     let tty = std::io::IsTerminal::is_terminal(&std::io::stderr());
     let bytes = pool.install(|| {
-        stimuli::render_video(timeline, settings, frames, true, None, &mut |frame, image| {
+        stimuli::render_video(timeline, settings, frames, true, None, None, &mut |frame, image| {
             if tty {
                 eprint!("\rrendering frame {}/{total}", frame + 1);
             }
@@ -620,7 +639,7 @@ fn render_timeline_video(timeline: &Timeline, output: &Path, threads: Option<usi
     stimuli::build::write_atomic(output, &bytes)?;
     if let (Some(path), Some(image)) = (poster, first) {
         check_png_path(path)?;
-        write_png(&image, path)?;
+        write_png(&image.encode_png(), path)?;
     }
     let (w, h) = engine::video::even_size(timeline.size[0], timeline.size[1]);
     if (w, h) != (timeline.size[0], timeline.size[1]) {

@@ -183,8 +183,9 @@ pub fn set_stimuli(set_dir: &std::path::Path, media: crate::study::design::Media
     let mut stimuli = Vec::new();
     for row in rows.into_iter().filter(|r| media.admits(&r.media)) {
         let relative = std::path::Path::new(&row.file);
-        if relative.components().any(|c| !matches!(c, std::path::Component::Normal(_))) {
-            return Err(DbError::Invalid(format!("{}: stimulus {} has a file path outside the set: {}", manifest.display(), row.stimulus_id, row.file)));
+        if !crate::stimuli::manifest::is_media_path(&row.file) {
+            let shown: String = row.file.chars().take(80).collect();
+            return Err(DbError::Invalid(format!("{}: stimulus {}: file `{shown}` is not in the set's media/ directory", manifest.display(), row.stimulus_id)));
         }
         if !set_dir.join(relative).is_file() {
             return Err(DbError::NotFound(format!("{}: the file of stimulus {} is missing: {}", manifest.display(), row.stimulus_id, row.file)));

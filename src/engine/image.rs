@@ -1,10 +1,12 @@
 //! 8-bit sRGB images, the linear → sRGB transfer function, and deterministic PNG encoding.
 //!
+//! In: pixels. Out: PNG bytes in memory (writing them to a file is the caller's business: the
+//! engine does no I/O).
+//!
 //! **Invariant:** the same pixels always encode to the same PNG bytes: the encoder settings are
 //! fixed here (RGB 8-bit, no ancillary chunks, `Balanced` deflate, adaptive row filters) and the
 //! `png` crate's encoder is itself deterministic.
 
-use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
 /// An RGB image, 8 bits per channel, sRGB-encoded, rows top to bottom, no padding.
@@ -16,15 +18,9 @@ pub struct RgbImage {
     pub data: Vec<u8>,
 }
 
-/// Failure to encode or write a PNG.
+/// Failure to encode a PNG.
 #[derive(Debug, thiserror::Error)]
 pub enum ImageError {
-    #[error("cannot write PNG file {path}: {source}")]
-    Io {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
     #[error("PNG encoding failed: {0}")]
     Encode(#[from] png::EncodingError),
 }
@@ -76,13 +72,6 @@ impl RgbImage {
             writer.finish()?;
         }
         Ok(out)
-    }
-
-    /// Encodes (see [`RgbImage::encode_png`]) and writes the PNG to `path`.
-    pub fn write_png(&self, path: impl AsRef<Path>) -> Result<(), ImageError> {
-        let path = path.as_ref();
-        let bytes = self.try_encode_png()?;
-        std::fs::write(path, bytes).map_err(|source| ImageError::Io { path: path.to_path_buf(), source })
     }
 }
 
@@ -381,14 +370,5 @@ mod tests {
         let mut buf = vec![0; reader.output_buffer_size().unwrap()];
         reader.next_frame(&mut buf).unwrap();
         assert_eq!(buf, rgba.data);
-    }
-
-    #[test]
-    fn write_png_reports_a_typed_error() {
-        let dir = tempfile::tempdir().unwrap();
-        let img = RgbImage::new(2, 2);
-        img.write_png(dir.path().join("ok.png")).unwrap();
-        let err = img.write_png(dir.path().join("missing/dir/x.png")).unwrap_err();
-        assert!(matches!(err, ImageError::Io { .. }), "{err}");
     }
 }

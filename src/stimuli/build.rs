@@ -4,12 +4,18 @@
 //!
 //! ```text
 //! manifest.csv, manifest.json     one row per stimulus (see `manifest`)
-//! media/<id>.png | media/<id>.mp4 what participants see
-//! posters/<id>.png                first frame of each video (neutral), for <video poster>
+//! media/<id>.png | media/<id>.mp4 what participants see (dithered)
+//! posters/<id>.png                first frame of each video (neutral, dithered), for <video poster>
 //! ground_truth/<id>.csv           per-frame AU intensities of each video
 //! timelines/<id>.json             the timeline that reproduces each video exactly
-//! frames/<id>/000000.png …        every video frame as PNG, when the spec asks (png_frames)
+//! frames/<id>/000000.png …        every video frame as PNG, when the spec asks (png_frames; not dithered)
+//! dither.key                      the set's secret dither key (never served; see `dither`)
 //! ```
+//!
+//! Media and posters are dithered with the set's key ([`Dithering`]): every still, every video
+//! frame before it is encoded, every poster. The per-frame PNGs, ground truth and timelines are the
+//! engine's own. The manifest's `dither` column holds the key's fingerprint, so files made with
+//! another key, or without one, are never taken as up to date.
 //!
 //! Ids are opaque: the first 16 hex digits of SHA-256 over a fixed key, the set seed and the
 //! entry index, so file names and paths say nothing about what a stimulus shows. Every file is
@@ -26,6 +32,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use rayon::prelude::*;
 use sha2::{Digest, Sha256};
 
+use super::dither::{Dither, DitherKey, DitherKeyError};
 use super::frames::{FrameKey, SharedFrames};
 use super::manifest::{self, ManifestRow};
 use super::spec::{Content, Entry, SetSpec};
@@ -51,6 +58,8 @@ pub enum BuildError {
     IdCollision(String),
     #[error("could not start {0} worker threads: {1}")]
     Threads(usize, String),
+    #[error(transparent)]
+    DitherKey(#[from] DitherKeyError),
 }
 
 fn io(path: &Path) -> impl FnOnce(std::io::Error) -> BuildError + '_ {
@@ -64,6 +73,39 @@ pub struct BuildOptions {
     pub jobs: Option<usize>,
     /// Draw a progress bar on stderr (hidden automatically when stderr is not a terminal).
     pub progress: bool,
+    /// Which key dithers the media.
+    pub dither: Dithering,
+}
+
+/// Which key dithers a set's media.
+#[derive(Debug, Clone, Default)]
+pub enum Dithering {
+    /// The set directory's `dither.key`, made from the operating system's randomness on the first build.
+    #[default]
+    SetKey,
+    /// This key (kept as the set directory's `dither.key`), e.g. one key for all shards of a set.
+    Key(DitherKey),
+    /// No dither and no key: the media are the engine's bytes, as `facslab render` writes them.
+    Off,
+}
+
+impl Dithering {
+    /// The key the build into `out` uses, kept in `out` (`None` without dither).
+    pub fn key_for(&self, out: &Path) -> Result<Option<DitherKey>, BuildError> {
+        match self {
+            Dithering::SetKey => Ok(Some(DitherKey::of_set(out)?)),
+            Dithering::Key(key) => {
+                key.keep_in_set(out)?;
+                Ok(Some(key.clone()))
+            }
+            Dithering::Off => Ok(None),
+        }
+    }
+}
+
+/// The manifest's `dither` value: the key's fingerprint, empty without dither.
+pub fn dither_column(key: Option<&DitherKey>) -> String {
+    key.map(DitherKey::fingerprint).unwrap_or_default()
 }
 
 /// What a build did.
@@ -99,9 +141,10 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), BuildError> {
     std::fs::rename(&partial, path).map_err(io(path))
 }
 
-/// The manifest rows the whole set will have, in spec order, `sha256` still empty.
-pub fn plan(spec: &SetSpec) -> Vec<ManifestRow> {
-    spec.entries.iter().map(|entry| planned_row(spec, entry, &stimulus_id(spec.seed, entry.index))).collect()
+/// The manifest rows the whole set will have, in spec order, `sha256` still empty (`dither` is
+/// the [`dither_column`]).
+pub fn plan(spec: &SetSpec, dither: &str) -> Vec<ManifestRow> {
+    spec.entries.iter().map(|entry| planned_row(spec, entry, &stimulus_id(spec.seed, entry.index), dither)).collect()
 }
 
 /// The engine version, with the look appended when it is not the default (so that a change of
@@ -122,7 +165,7 @@ fn engine_version(look: &Look) -> String {
 }
 
 /// The row an entry will have, with `sha256` still empty.
-fn planned_row(spec: &SetSpec, entry: &Entry, id: &str) -> ManifestRow {
+fn planned_row(spec: &SetSpec, entry: &Entry, id: &str, dither: &str) -> ManifestRow {
     let (w, h) = spec.size;
     let base = ManifestRow {
         stimulus_id: id.to_string(),
@@ -142,6 +185,7 @@ fn planned_row(spec: &SetSpec, entry: &Entry, id: &str) -> ManifestRow {
         sha256: String::new(),
         set_seed: spec.seed,
         engine_version: engine_version(&spec.look),
+        dither: dither.to_string(),
     };
     match &entry.content {
         Content::Image(_) => ManifestRow { media: "image".into(), file: format!("media/{id}.png"), ..base },
@@ -208,6 +252,8 @@ pub fn build(spec: &SetSpec, out: &Path, options: &BuildOptions) -> Result<Build
         let path = out.join(dir);
         std::fs::create_dir_all(&path).map_err(io(&path))?;
     }
+    let key = options.dither.key_for(out)?;
+    let dither = dither_column(key.as_ref());
     let manifest_json = out.join("manifest.json");
     let old: Vec<ManifestRow> = match std::fs::read_to_string(&manifest_json) {
         Ok(text) => manifest::from_json(&text).unwrap_or_default(),
@@ -219,7 +265,7 @@ pub fn build(spec: &SetSpec, out: &Path, options: &BuildOptions) -> Result<Build
         .iter()
         .zip(&ids)
         .map(|(entry, id)| {
-            let planned = planned_row(spec, entry, id);
+            let planned = planned_row(spec, entry, id, &dither);
             let previous = old.iter().find(|r| r.stimulus_id == *id);
             let sides = side_files(out, entry, id, spec.png_frames);
             let fresh = up_to_date(out, previous, &planned, &sides);
@@ -264,7 +310,8 @@ pub fn build(spec: &SetSpec, out: &Path, options: &BuildOptions) -> Result<Build
             .par_iter()
             .map(|&i| {
                 let entry = &spec.entries[i];
-                let result = render_entry(spec, entry, &ids[i], out, &shared, &|n| {
+                let dither = key.as_ref().map(|key| Dither { key, stimulus_id: &ids[i], grey: spec.look.grayscale });
+                let result = render_entry(spec, entry, &ids[i], out, &shared, dither, &|n| {
                     bar.inc(n as u64);
                     frames_rendered.fetch_add(n, Ordering::Relaxed);
                 });
@@ -312,13 +359,15 @@ fn planned_frames(entry: &Entry) -> usize {
     }
 }
 
-/// Renders one entry's files and returns the sha256 of its media file.
+/// Renders one entry's files (media and poster dithered with `dither`) and returns the sha256 of
+/// its media file.
 fn render_entry(
     spec: &SetSpec,
     entry: &Entry,
     id: &str,
     out: &Path,
     shared: &SharedFrames,
+    dither: Option<Dither>,
     progress: &dyn Fn(usize),
 ) -> Result<String, BuildError> {
     let fail = |message: String| BuildError::Render { entry: entry.origin.clone(), message };
@@ -330,7 +379,11 @@ fn render_entry(
             let frame = engine::render_frame(expression, identity, settings).map_err(|e| fail(e.to_string()))?;
             let key = FrameKey::new(&entry.identity, spec.size, expression);
             shared.release([&key]);
-            let bytes = frame.encode_png();
+            let bytes = match dither {
+                Some(d) => d.frame(frame, 0),
+                None => frame,
+            }
+            .encode_png();
             write_atomic(&out.join("media").join(format!("{id}.png")), &bytes)?;
             progress(1);
             Ok(sha256_hex(&bytes))
@@ -346,7 +399,7 @@ fn render_entry(
                 }
             };
             shared.release([&key]);
-            let bytes = image.encode_png();
+            let bytes = dither.map_or_else(|| image.encode_png(), |d| d.rgb(&image, 0).encode_png());
             write_atomic(&out.join("media").join(format!("{id}.png")), &bytes)?;
             progress(1);
             Ok(sha256_hex(&bytes))
@@ -354,7 +407,7 @@ fn render_entry(
         Content::Video { timeline, .. } => {
             let frames_dir = spec.png_frames.then(|| out.join("frames").join(id));
             let mut poster = None;
-            let bytes = render_video(timeline, settings, frames_dir.as_deref(), false, Some(shared), &mut |frame, image| {
+            let bytes = render_video(timeline, settings, frames_dir.as_deref(), false, Some(shared), dither, &mut |frame, image| {
                 if frame == 0 {
                     poster = Some(image.encode_png());
                 }
@@ -389,14 +442,16 @@ pub enum VideoBuildError {
 /// Renders every frame of `timeline` (on the calling thread, or in parallel over frames with
 /// `parallel`; each distinct expression is rendered once, or taken from `shared` when another
 /// entry of the build has rendered it), encodes the MP4, and optionally writes the PNG frames
-/// into `frames_dir` (through a temporary directory renamed into place). `on_frame` sees each
-/// frame.
+/// into `frames_dir` (through a temporary directory renamed into place). With `dither`, each
+/// frame is dithered before it is encoded; the PNG frames stay the engine's. `on_frame` sees
+/// each frame as encoded.
 pub fn render_video(
     timeline: &Timeline,
     settings: FrameSettings,
     frames_dir: Option<&Path>,
     parallel: bool,
     shared: Option<&SharedFrames>,
+    dither: Option<Dither>,
     on_frame: &mut dyn FnMut(usize, &RgbImage),
 ) -> Result<Vec<u8>, VideoBuildError> {
     let catalog = Catalog::built_in();
@@ -448,12 +503,16 @@ pub fn render_video(
         for (frame, key) in keys.iter().enumerate().take(end).skip(start) {
             let key = key.as_str();
             let image = local.get(key).or_else(|| cache.get(key)).cloned().expect("every frame is rendered or cached");
-            encoder.push(&image)?;
+            let shown = match dither {
+                Some(d) => std::borrow::Cow::Owned(d.rgb(&image, frame)),
+                None => std::borrow::Cow::Borrowed(&*image),
+            };
+            encoder.push(&shown)?;
             if let Some(dir) = &partial_dir {
                 let path = dir.join(format!("{frame:06}.png"));
                 std::fs::write(&path, image.encode_png()).map_err(|e| VideoBuildError::Io(io(&path)(e)))?;
             }
-            on_frame(frame, &image);
+            on_frame(frame, &shown);
         }
         for (key, image) in local {
             if cached_bytes + image.data.len() <= CACHE_BYTES {

@@ -3,6 +3,9 @@
 //! `manifest.csv` and `manifest.json` hold the same rows, one per stimulus, with exactly the
 //! columns of [`COLUMNS`]. In the CSV an absent value (timing, frames and fps of an image) is an
 //! empty field; in the JSON it is `null`. Numbers are printed in Rust's shortest round-trip form.
+//! `sha256` is the hash of the media file as written (dithered, when the set is); `dither` is the
+//! fingerprint of the set's dither key (16 hex digits; empty for a set built with `--no-dither`).
+//! A stimulus's `file` is always `media/<name>`: [`is_media_path`] is the check readers apply.
 //!
 //! The per-frame ground truth (`ground_truth/<id>.csv`) has the columns
 //! `frame,time_s,AU01_r,AU02_r,…` after the OpenFace convention: one column per AU the video
@@ -16,7 +19,7 @@ use crate::engine::timeline::Timeline;
 use crate::facs::Laterality;
 
 /// The manifest columns, in order.
-pub const COLUMNS: [&str; 17] = [
+pub const COLUMNS: [&str; 18] = [
     "stimulus_id",
     "media",
     "file",
@@ -34,6 +37,7 @@ pub const COLUMNS: [&str; 17] = [
     "sha256",
     "set_seed",
     "engine_version",
+    "dither",
 ];
 
 /// One stimulus in the manifest.
@@ -64,6 +68,20 @@ pub struct ManifestRow {
     pub sha256: String,
     pub set_seed: u64,
     pub engine_version: String,
+    /// Fingerprint of the set's dither key; empty when the media are not dithered (and in
+    /// manifests written before sets were dithered).
+    #[serde(default)]
+    pub dither: String,
+}
+
+/// True when `file` names a file directly under the set's `media/` directory (no `..`, no
+/// absolute path): the only files a manifest may point at, so nothing else of a set directory
+/// (its `dither.key`, ground truth, frames) can be served as a stimulus.
+pub fn is_media_path(file: &str) -> bool {
+    let mut parts = std::path::Path::new(file).components();
+    let normal = |part: Option<std::path::Component>| matches!(part, Some(std::path::Component::Normal(_)));
+    let first = parts.next();
+    first.is_some_and(|c| c.as_os_str() == "media") && normal(first) && normal(parts.next()) && parts.next().is_none()
 }
 
 fn opt<T: ToString>(v: &Option<T>) -> String {
@@ -99,6 +117,7 @@ impl ManifestRow {
             self.sha256.clone(),
             self.set_seed.to_string(),
             self.engine_version.clone(),
+            self.dither.clone(),
         ]
     }
 }
@@ -183,6 +202,7 @@ mod tests {
             sha256: "ab".repeat(32),
             set_seed: 7,
             engine_version: "0.1.0".into(),
+            dither: "0123456789abcdef".into(),
         }
     }
 
@@ -192,7 +212,7 @@ mod tests {
         let mut lines = csv.lines();
         assert_eq!(
             lines.next().unwrap(),
-            "stimulus_id,media,file,identity,expression,emotion,intensity,onset_s,apex_s,offset_s,frames,fps,width,height,sha256,set_seed,engine_version"
+            "stimulus_id,media,file,identity,expression,emotion,intensity,onset_s,apex_s,offset_s,frames,fps,width,height,sha256,set_seed,engine_version,dither"
         );
         assert_eq!(lines.next().unwrap().split(',').count(), COLUMNS.len());
         let json: serde_json::Value = serde_json::from_str(&to_json(&[row()])).unwrap();
@@ -203,6 +223,17 @@ mod tests {
         keys.sort();
         assert_eq!(keys, expected);
         assert_eq!(from_json(&to_json(&[row()])).unwrap(), vec![row()]);
+    }
+
+    #[test]
+    fn older_manifests_without_dither_read_as_undithered_and_files_stay_under_media() {
+        let mut json: serde_json::Value = serde_json::from_str(&to_json(&[row()])).unwrap();
+        json[0].as_object_mut().unwrap().remove("dither");
+        assert_eq!(from_json(&json.to_string()).unwrap()[0].dither, "");
+        assert!(is_media_path("media/0a1b2c3d4e5f6789.png"));
+        for bad in ["dither.key", "media/../dither.key", "/media/x.png", "media", "media/", "media/a/b.png", "posters/x.png", "./media/x.png", "media/.."] {
+            assert!(!is_media_path(bad), "{bad}");
+        }
     }
 
     #[test]

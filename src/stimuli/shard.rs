@@ -7,16 +7,18 @@
 //!
 //! Invariants: shard `K/N` holds exactly the entries at positions `p` with `p mod N = K − 1`, so
 //! N shards partition the set whatever the machines; a shard records the fingerprint of the whole
-//! planned set (every planned manifest row, seed and engine version included), and merge joins
-//! only shards with one fingerprint, each `K` once, each media file with its recorded sha256.
-//! Merge writes the manifest last, so a failed merge leaves no manifest.
+//! planned set (every planned manifest row, seed and engine version included) and of its dither
+//! key (never the key), and merge joins only shards with one set fingerprint and one key
+//! fingerprint, each `K` once, each media file with its recorded sha256; the merged set gets the
+//! shards' `dither.key`. Merge writes the manifest last, so a failed merge leaves no manifest.
 
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
 use serde::{Deserialize, Serialize};
 
-use super::build::{self, BuildError, BuildOptions, BuildSummary, sha256_hex, write_atomic};
+use super::build::{self, BuildError, BuildOptions, BuildSummary, Dithering, sha256_hex, write_atomic};
+use super::dither::{DitherKey, KEY_FILE};
 use super::manifest::{self, ManifestRow};
 use super::spec::SetSpec;
 
@@ -85,6 +87,10 @@ pub enum ShardError {
     Content(PathBuf, String),
     #[error("{}: the output directory is not empty; merge into a new directory", .0.display())]
     OutputNotEmpty(PathBuf),
+    #[error("shard {0}: the parts of one set share one dither key; give it with --dither-key FILE (make one with `facslab stimuli key -o FILE`), or build every part with --no-dither")]
+    NeedsKey(Shard),
+    #[error("{}: its {KEY_FILE} is not the key {SHARD_FILE} records (fingerprint {recorded})", .dir.display())]
+    WrongKey { dir: PathBuf, recorded: String },
 }
 
 /// What `shard.json` records.
@@ -100,11 +106,20 @@ struct ShardRecord {
     plan_sha256: String,
     /// The stimulus ids of the whole set, in spec order.
     ids: Vec<String>,
+    /// The fingerprint of the dither key (empty without dither); never the key.
+    #[serde(default)]
+    dither: String,
 }
 
-/// Builds shard `shard` of `spec` into `out` and records it in `shard.json`.
+/// Builds shard `shard` of `spec` into `out` and records it in `shard.json`. The parts of a set
+/// must share a key, so a shard is dithered only with a given key ([`Dithering::Key`]) or not at all.
 pub fn build_shard(spec: &SetSpec, shard: Shard, out: &Path, options: &BuildOptions) -> Result<BuildSummary, ShardError> {
-    let plan = build::plan(spec);
+    let dither = match &options.dither {
+        Dithering::SetKey => return Err(ShardError::NeedsKey(shard)),
+        Dithering::Key(key) => key.fingerprint(),
+        Dithering::Off => String::new(),
+    };
+    let plan = build::plan(spec, &dither);
     let record = ShardRecord {
         shard: shard.to_string(),
         set: spec.name.clone(),
@@ -112,6 +127,7 @@ pub fn build_shard(spec: &SetSpec, shard: Shard, out: &Path, options: &BuildOpti
         engine_version: build::ENGINE_VERSION.to_string(),
         plan_sha256: sha256_hex(manifest::to_json(&plan).as_bytes()),
         ids: plan.iter().map(|row| row.stimulus_id.clone()).collect(),
+        dither,
     };
     let part = SetSpec {
         entries: spec.entries.iter().enumerate().filter(|(p, _)| shard.holds(*p)).map(|(_, e)| e.clone()).collect(),
@@ -151,6 +167,7 @@ fn check_complete(mut shards: Vec<ReadShard>) -> Result<Vec<ReadShard>, ShardErr
         let differs = [
             ("the set name", &first_record.set, &r.set),
             ("the engine version", &first_record.engine_version, &r.engine_version),
+            ("the dither key (its fingerprint; build every part with the same --dither-key)", &first_record.dither, &r.dither),
             ("the planned set (spec or seed)", &first_record.plan_sha256, &r.plan_sha256),
         ]
         .into_iter()
@@ -187,8 +204,11 @@ fn check_contents(shard: &ReadShard) -> Result<(), ShardError> {
         ));
     }
     for row in &shard.rows {
-        if !row.file.starts_with("media/") || row.file.contains("..") {
+        if !manifest::is_media_path(&row.file) {
             return Err(ShardError::Content(shard.dir.join("manifest.json"), format!("stimulus {}: file `{}` is not under media/", row.stimulus_id, row.file)));
+        }
+        if row.dither != shard.record.dither {
+            return Err(ShardError::Content(shard.dir.join("manifest.json"), format!("stimulus {} was dithered with another key than {SHARD_FILE} records", row.stimulus_id)));
         }
         let path = shard.dir.join(&row.file);
         let bytes = std::fs::read(&path).map_err(|e| ShardError::Content(path.clone(), e.to_string()))?;
@@ -197,6 +217,19 @@ fn check_contents(shard: &ReadShard) -> Result<(), ShardError> {
         }
     }
     Ok(())
+}
+
+/// The dither key a shard holds, checked against the fingerprint its record holds (`None` for a
+/// shard built without dither).
+fn shard_key(shard: &ReadShard) -> Result<Option<DitherKey>, ShardError> {
+    if shard.record.dither.is_empty() {
+        return Ok(None);
+    }
+    let key = DitherKey::read(&shard.dir.join(KEY_FILE)).map_err(BuildError::from)?;
+    if key.fingerprint() != shard.record.dither {
+        return Err(ShardError::WrongKey { dir: shard.dir.clone(), recorded: shard.record.dither.clone() });
+    }
+    Ok(Some(key))
 }
 
 /// What a merge did.
@@ -214,9 +247,13 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergeSummary, ShardError> {
     }
     let shards = check_complete(dirs.iter().map(|d| read_shard(d)).collect::<Result<_, _>>()?)?;
     shards.iter().try_for_each(check_contents)?;
+    let key = shards.iter().map(shard_key).collect::<Result<Vec<_>, _>>()?.into_iter().next().flatten();
     let mut files = 0;
     for shard in &shards {
         files += copy_set_files(&shard.dir, out)?;
+    }
+    if let Some(key) = key {
+        key.write(&out.join(KEY_FILE)).map_err(BuildError::from)?;
     }
     let order: std::collections::HashMap<String, usize> =
         shards[0].record.ids.iter().enumerate().map(|(position, id)| (id.clone(), position)).collect();
@@ -228,7 +265,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergeSummary, ShardError> {
 }
 
 /// The directories of a set's layout whose files are copied by a merge (the manifests are
-/// written anew; `shard.json` stays behind).
+/// written anew, the dither key is written from the checked key; `shard.json` stays behind).
 const SET_DIRS: [&str; 5] = ["media", "posters", "ground_truth", "timelines", "frames"];
 
 /// Copies a shard's set files into `out`, each through a temporary name; returns how many.

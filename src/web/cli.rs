@@ -336,7 +336,8 @@ pub fn demo_command(args: DemoArgs) -> anyhow::Result<()> {
     let set_dir = args.output.join("stimuli");
     let spec = crate::stimuli::SetSpec::from_toml(DEMO_SET)?;
     eprintln!("building the demo stimulus set in {} ...", set_dir.display());
-    crate::stimuli::build(&spec, &set_dir, &crate::stimuli::build::BuildOptions { jobs: None, progress: true })?;
+    // Dithered with the set's own key (made on the first run, kept in the set directory).
+    crate::stimuli::build(&spec, &set_dir, &crate::stimuli::build::BuildOptions { jobs: None, progress: true, ..Default::default() })?;
     let db_path = args.output.join("study.db");
     runtime()?.block_on(async {
         let db = open(&db_path).await?;

@@ -405,7 +405,7 @@ async fn media(State(app): State<AppState>, token: ParticipationToken, TrialPosi
     let trials = app.db.trials(p.id).await?;
     let current = trials.iter().find(|t| !t.answered).map_or(i64::MAX, |t| t.position);
     let trial = trials.iter().find(|t| t.position == position && position <= current.saturating_add(PRELOAD_AHEAD)).ok_or(WebError::NotFound)?;
-    let stimulus = study.stimuli.get(&trial.stimulus_id).ok_or(WebError::NotFound)?;
+    let stimulus = study.stimuli.get(&trial.stimulus_id).filter(|s| crate::stimuli::manifest::is_media_path(&s.file)).ok_or(WebError::NotFound)?;
     let bytes = tokio::fs::read(study.set_dir.join(&stimulus.file)).await.map_err(|e| WebError::internal(format!("reading {}", stimulus.file), e))?;
     let content_type = if stimulus.media == "video" { "video/mp4" } else { "image/png" };
     Ok(byte_range(bytes, content_type, headers.get(header::RANGE).and_then(|v| v.to_str().ok())))

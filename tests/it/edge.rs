@@ -371,3 +371,87 @@ async fn edge_an_oversized_answer_is_refused_quoting_a_short_excerpt() {
     assert!(!out.status.success());
     assert!(out.stderr.len() < 300, "{} bytes", out.stderr.len());
 }
+
+/// The attacker's story: a participant renders the public re-render of every stimulus (the set's
+/// own expressions, people and timelines) and compares it with what the study serves; nothing
+/// matches. And no URL reaches the set's `dither.key`, not even through a crafted manifest.
+#[tokio::test(flavor = "multi_thread")]
+async fn edge_served_media_differ_from_a_public_re_render_and_the_dither_key_is_never_served() {
+    let (lab, server, http) = emotion_lab("emo", "");
+    let set = lab.path().join("set");
+    let rows: Vec<facslab::stimuli::ManifestRow> = serde_json::from_str(&std::fs::read_to_string(set.join("manifest.json")).unwrap()).unwrap();
+    let public: Vec<Vec<u8>> = rows.iter().enumerate().map(|(n, row)| crate::stimuli::public_render(lab.path(), &set, row, &format!("public{n}"))).collect();
+    let set_files: Vec<Vec<u8>> = rows.iter().map(|row| std::fs::read(set.join(&row.file)).unwrap()).collect();
+
+    let token = start(&http, &server, "emo", &[]).await;
+    consent_and_demographics(&http, &server, &token).await;
+    let mut served = Vec::new();
+    while let Some(position) = current_position(&http, &server, &token).await {
+        let r = http.get(server.url(&format!("/p/{token}/media/{position}"))).send().await.unwrap();
+        assert_eq!(r.status(), 200, "trial {position}");
+        served.push(r.bytes().await.unwrap().to_vec());
+        let key = format!("attacker-trial-{position:04}");
+        assert_eq!(save(&http, &server, &token, position, &key, &[("emotion", "fear"), ("believability", "2")]).await.0, 200);
+        assert!(served.len() <= 20, "the study never ends");
+    }
+    assert!(served.len() >= rows.len(), "every stimulus was shown: {} trials", served.len());
+    for (n, bytes) in served.iter().enumerate() {
+        assert!(set_files.contains(bytes), "trial {n} served a file that is not one of the set's media");
+        assert!(!public.contains(bytes), "trial {n} served the bytes of a public re-render");
+    }
+    let videos = rows.iter().filter(|r| r.media == "video").count();
+    assert!(videos > 0 && served.iter().any(|b| b.get(4..8) == Some(&b"ftyp"[..])), "a video was among the served media");
+
+    // The key file is in the set directory, and no URL hands it out.
+    let key = std::fs::read_to_string(set.join("dither.key")).unwrap().trim().to_string();
+    assert_eq!(key.len(), 64);
+    let cookie = admin_cookie(&http, &server).await;
+    let paths = [
+        "/dither.key".to_string(),
+        "/set/dither.key".into(),
+        "/s/emo/dither.key".into(),
+        format!("/p/{token}/dither.key"),
+        format!("/p/{token}/media/dither.key"),
+        format!("/p/{token}/media/..%2Fdither.key"),
+        format!("/p/{token}/media/%2e%2e/%2e%2e/set/dither.key"),
+        format!("/p/{token}/media/-1"),
+        format!("/p/{token}/media/99"),
+        "/assets/dither.key".into(),
+        "/assets/..%2F..%2Fset%2Fdither.key".into(),
+        "/admin/dither.key".into(),
+        "/admin/studies/emo/dither.key".into(),
+        "/api/v1/studies/emo/dither.key".into(),
+    ];
+    for path in &paths {
+        for with_cookie in [false, true] {
+            let mut request = http.get(server.url(path));
+            if with_cookie {
+                request = request.header("cookie", &cookie);
+            }
+            let r = request.send().await.unwrap();
+            let status = r.status();
+            let body = r.text().await.unwrap_or_default();
+            assert!(!body.contains(&key), "{path} hands out the dither key");
+            assert!(status.is_client_error() || status.is_redirection(), "{path}: {status}");
+        }
+    }
+
+    // A crafted manifest pointing a stimulus at the key (or anything outside media/) makes no study.
+    for crafted_file in ["dither.key", "media/../dither.key", "posters/../dither.key"] {
+        let crafted = lab.path().join("crafted");
+        let _ = std::fs::remove_dir_all(&crafted);
+        std::fs::create_dir_all(crafted.join("media")).unwrap();
+        std::fs::copy(set.join("dither.key"), crafted.join("dither.key")).unwrap();
+        let mut rows = rows.clone();
+        for row in &rows {
+            std::fs::copy(set.join(&row.file), crafted.join(&row.file)).unwrap();
+        }
+        rows[0].file = crafted_file.to_string();
+        std::fs::write(crafted.join("manifest.json"), facslab::stimuli::manifest::to_json(&rows)).unwrap();
+        std::fs::write(lab.path().join("crafted.toml"), emotion_design("crafted", "")).unwrap();
+        let out = crate::cli::facslab(lab.path(), &["study", "create", "crafted.toml", "--set", "crafted", "--db", "lab.db", "--open"]);
+        assert!(!out.status.success(), "{crafted_file}: a study was made");
+        let err = crate::cli::stderr(&out);
+        assert!(err.contains("is not in the set's media/ directory"), "{crafted_file}: {err}");
+    }
+}

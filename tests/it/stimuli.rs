@@ -51,14 +51,18 @@ timing = { onset_s = 0.05, apex_s = 0.05, offset_s = 0.05 }
 "#;
 
 fn build(dir: &Path, spec: &str, out: &str) -> Vec<ManifestRow> {
-    build_with_jobs(dir, spec, out, "2")
+    build_with(dir, spec, out, &["--jobs", "2"])
 }
 
-fn build_with_jobs(dir: &Path, spec: &str, out: &str, jobs: &str) -> Vec<ManifestRow> {
+/// Builds `spec` into `dir/out` with more options; returns the manifest rows.
+fn build_with(dir: &Path, spec: &str, out: &str, options: &[&str]) -> Vec<ManifestRow> {
     std::fs::write(dir.join("spec.toml"), spec).unwrap();
-    facslab_ok(dir, &["stimuli", "build", "spec.toml", "-o", out, "--jobs", jobs]);
-    let text = std::fs::read_to_string(dir.join(out).join("manifest.json")).unwrap();
-    serde_json::from_str(&text).unwrap()
+    facslab_ok(dir, &[&["stimuli", "build", "spec.toml", "-o", out], options].concat());
+    manifest_rows(&dir.join(out))
+}
+
+fn manifest_rows(set: &Path) -> Vec<ManifestRow> {
+    serde_json::from_str(&std::fs::read_to_string(set.join("manifest.json")).unwrap()).unwrap()
 }
 
 /// Every file under `root`, relative path → bytes.
@@ -92,7 +96,8 @@ fn rgb(png: &[u8]) -> (u32, u32, Vec<u8>) {
 fn stimuli_same_spec_and_seed_give_identical_bytes_on_any_jobs_and_a_rebuild_skips_everything() {
     let dir = tempfile::tempdir().unwrap();
     let rows = build(dir.path(), TINY, "a");
-    build_with_jobs(dir.path(), TINY, "b", "1");
+    // Another directory with the first one's key: the same bytes, the key file included.
+    build_with(dir.path(), TINY, "b", &["--jobs", "1", "--dither-key", "a/dither.key"]);
     let (a, b) = (files(&dir.path().join("a")), files(&dir.path().join("b")));
     assert_eq!(a.keys().collect::<Vec<_>>(), b.keys().collect::<Vec<_>>());
     for (name, bytes) in &a {
@@ -102,7 +107,7 @@ fn stimuli_same_spec_and_seed_give_identical_bytes_on_any_jobs_and_a_rebuild_ski
     let csv = String::from_utf8(a["manifest.csv"].clone()).unwrap();
     assert_eq!(
         csv.lines().next().unwrap(),
-        "stimulus_id,media,file,identity,expression,emotion,intensity,onset_s,apex_s,offset_s,frames,fps,width,height,sha256,set_seed,engine_version"
+        "stimulus_id,media,file,identity,expression,emotion,intensity,onset_s,apex_s,offset_s,frames,fps,width,height,sha256,set_seed,engine_version,dither"
     );
     assert_eq!(rows.len(), 7);
     assert_eq!(csv.lines().count(), 8);
@@ -110,7 +115,9 @@ fn stimuli_same_spec_and_seed_give_identical_bytes_on_any_jobs_and_a_rebuild_ski
         use sha2::Digest;
         assert_eq!(hex::encode(sha2::Sha256::digest(&a[&row.file])), row.sha256, "{}", row.file);
         assert_eq!(row.set_seed, 99);
+        assert_eq!(row.dither.len(), 16, "the key's fingerprint");
     }
+    assert!(a.contains_key("dither.key"));
     for row in &rows {
         facslab::facs::Catalog::built_in().parse(&row.expression).unwrap_or_else(|e| panic!("{}: {e}", row.expression));
     }
@@ -141,16 +148,18 @@ fn stimuli_names_and_ids_reveal_nothing() {
     for name in files(&dir.path().join("set")).keys() {
         let stem = Path::new(name).file_stem().unwrap().to_string_lossy().into_owned();
         let ok = name.starts_with("manifest.")
+            || name == "dither.key"
             || rows.iter().any(|r| name.contains(&r.stimulus_id))
             || stem.chars().all(|c| c.is_ascii_digit());
         assert!(ok, "{name} is not an opaque name");
     }
 }
 
+/// The engine's bytes: built without dither, the still is the apex frame itself.
 #[test]
 fn stimuli_apex_frame_equals_the_still_and_ground_truth_matches_each_frame() {
     let dir = tempfile::tempdir().unwrap();
-    let rows = build(dir.path(), TINY, "set");
+    let rows = build_with(dir.path(), TINY, "set", &["--no-dither"]);
     let set = dir.path().join("set");
     let catalog = Catalog::built_in();
     // Clips only: a CPT sequence has no single apex.
@@ -379,10 +388,14 @@ fn stimuli_demo_set_built_in_two_shards_and_merged_equals_the_one_machine_build(
     let dir = tempfile::tempdir().unwrap();
     let spec = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/stimuli/sets/demo.toml")).unwrap();
     std::fs::write(dir.path().join("demo.toml"), &spec).unwrap();
-    facslab_ok(dir.path(), &["stimuli", "build", "demo.toml", "-o", "whole"]);
-    let one = facslab_ok(dir.path(), &["stimuli", "build", "demo.toml", "-o", "part1", "--shard", "1/2", "--jobs", "1"]);
+    facslab_ok(dir.path(), &["stimuli", "key", "-o", "demo.key"]);
+    facslab_ok(dir.path(), &["stimuli", "build", "demo.toml", "-o", "whole", "--dither-key", "demo.key"]);
+    let one = facslab_ok(dir.path(), &["stimuli", "build", "demo.toml", "-o", "part1", "--shard", "1/2", "--jobs", "1", "--dither-key", "demo.key"]);
     assert!(stderr(&one).contains("demo shard 1/2: 5 stimuli"), "{}", stderr(&one));
-    facslab_ok(dir.path(), &["stimuli", "build", "demo.toml", "-o", "part2", "--shard", "2/2"]);
+    facslab_ok(dir.path(), &["stimuli", "build", "demo.toml", "-o", "part2", "--shard", "2/2", "--dither-key", "demo.key"]);
+    let record = std::fs::read_to_string(dir.path().join("part2/shard.json")).unwrap();
+    let key = std::fs::read_to_string(dir.path().join("demo.key")).unwrap();
+    assert!(!record.contains(key.trim()), "shard.json records the key's fingerprint only:\n{record}");
     // Given in either order.
     facslab_ok(dir.path(), &["stimuli", "merge", "part2", "part1", "-o", "merged"]);
     let (whole, merged) = (files(&dir.path().join("whole")), files(&dir.path().join("merged")));
@@ -390,7 +403,8 @@ fn stimuli_demo_set_built_in_two_shards_and_merged_equals_the_one_machine_build(
     for (name, bytes) in &whole {
         assert!(merged[name] == *bytes, "{name} differs between the merged shards and the one-machine build");
     }
-    assert_eq!(whole.len(), 10 + 2 * 3 + 2, "10 media, 3 side files per video, 2 manifests");
+    assert_eq!(whole.len(), 10 + 2 * 3 + 2 + 1, "10 media, 3 side files per video, 2 manifests, the key");
+    assert_eq!(merged["dither.key"], key.as_bytes(), "the merged set keeps the shards' key");
 }
 
 /// Shards that do not make one set are refused, with the reason, and nothing is merged.
@@ -399,8 +413,11 @@ fn stimuli_merge_refuses_shards_that_do_not_make_one_set() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("spec.toml"), TINY).unwrap();
     std::fs::write(dir.path().join("other.toml"), TINY.replace("seed = 99", "seed = 100")).unwrap();
-    for (spec, out, shard) in [("spec.toml", "s1", "1/3"), ("spec.toml", "s2", "2/3"), ("spec.toml", "s3", "3/3"), ("other.toml", "o2", "2/3")] {
-        facslab_ok(dir.path(), &["stimuli", "build", spec, "-o", out, "--shard", shard]);
+    facslab_ok(dir.path(), &["stimuli", "key", "-o", "one.key"]);
+    facslab_ok(dir.path(), &["stimuli", "key", "-o", "another.key"]);
+    let parts = [("spec.toml", "s1", "1/3", "one.key"), ("spec.toml", "s2", "2/3", "one.key"), ("spec.toml", "s3", "3/3", "one.key"), ("other.toml", "o2", "2/3", "one.key"), ("spec.toml", "k2", "2/3", "another.key")];
+    for (spec, out, shard, key) in parts {
+        facslab_ok(dir.path(), &["stimuli", "build", spec, "-o", out, "--shard", shard, "--dither-key", key]);
     }
     facslab_ok(dir.path(), &["stimuli", "build", "spec.toml", "-o", "whole"]);
     let refused = |args: &[&str], reason: &str| {
@@ -411,11 +428,18 @@ fn stimuli_merge_refuses_shards_that_do_not_make_one_set() {
     refused(&["stimuli", "merge", "s1", "s3", "-o", "m"], "shards missing: 2/3");
     refused(&["stimuli", "merge", "s1", "s2", "s2", "s3", "-o", "m"], "shard 2/3 is given twice");
     refused(&["stimuli", "merge", "s1", "o2", "s3", "-o", "m"], "come from different sets");
+    refused(&["stimuli", "merge", "s1", "k2", "s3", "-o", "m"], "the dither key (its fingerprint; build every part with the same --dither-key) differs");
+    refused(&["stimuli", "build", "spec.toml", "-o", "x", "--shard", "1/3"], "the parts of one set share one dither key");
+    refused(&["stimuli", "key", "-o", "one.key"], "exists already");
     refused(&["stimuli", "merge", "s1", "s2", "whole", "-o", "m"], "not a shard directory");
     refused(&["stimuli", "merge", "s1", "s2", "s3", "-o", "whole"], "not empty");
     refused(&["stimuli", "build", "spec.toml", "-o", "x", "--shard", "4/3"], "`4/3` is not a shard");
     assert!(!dir.path().join("m").join("manifest.json").exists(), "a refused merge writes no manifest");
 
+    // A shard whose key file was swapped for another key is refused.
+    std::fs::copy(dir.path().join("another.key"), dir.path().join("s3/dither.key")).unwrap();
+    refused(&["stimuli", "merge", "s1", "s2", "s3", "-o", "m"], "is not the key shard.json records");
+    std::fs::copy(dir.path().join("one.key"), dir.path().join("s3/dither.key")).unwrap();
     // A damaged file in a shard is found by its sha256.
     let rows: Vec<ManifestRow> = serde_json::from_str(&std::fs::read_to_string(dir.path().join("s2/manifest.json")).unwrap()).unwrap();
     std::fs::write(dir.path().join("s2").join(&rows[0].file), b"damaged").unwrap();
@@ -444,4 +468,125 @@ fn stimuli_spec_people_from_a_file_and_the_look() {
     std::fs::write(dir.path().join("video.toml"), video).unwrap();
     let output = facslab(dir.path(), &["stimuli", "check", "video.toml"]);
     assert!(!output.status.success() && stderr(&output).contains("transparent"), "{}", stderr(&output));
+}
+
+/// Stills of two people and a short clip, small enough to render again and again.
+const KEYED: &str = r#"
+name = "keyed"
+seed = 5
+size = [48, 48]
+fps = 10
+
+[[group]]
+name = "stills"
+expressions = ["12", "1+2+L12C"]
+stills = [1.0, 0.5]
+identity = "wf1"
+
+[[group]]
+name = "clip"
+expressions = ["6+12"]
+video_peaks = [1.0]
+timing = { onset_s = 0.1, apex_s = 0.1, offset_s = 0.1 }
+identity = "bm1"
+"#;
+
+fn sha256(bytes: &[u8]) -> String {
+    use sha2::Digest;
+    hex::encode(sha2::Sha256::digest(bytes))
+}
+
+/// What anyone with facslab renders for a manifest row: `facslab render` of its expression and
+/// person at its size (a clip: of the set's own timeline, the closest public re-render there is).
+pub fn public_render(dir: &Path, set: &Path, row: &ManifestRow, name: &str) -> Vec<u8> {
+    if row.media == "video" {
+        let timeline = set.join(format!("timelines/{}.json", row.stimulus_id));
+        let out = format!("{name}.mp4");
+        facslab_ok(dir, &["render", "--timeline", timeline.to_str().unwrap(), "-o", &out]);
+        return std::fs::read(dir.join(out)).unwrap();
+    }
+    let (size, out) = (format!("{}x{}", row.width, row.height), format!("{name}.png"));
+    facslab_ok(dir, &["render", &row.expression, "--identity", &row.identity, "--size", &size, "-o", &out]);
+    std::fs::read(dir.join(out)).unwrap()
+}
+
+/// A set's media, posters and key (what dithering touches), relative path → bytes.
+fn dithered_files(set: &Path) -> BTreeMap<String, Vec<u8>> {
+    files(set).into_iter().filter(|(name, _)| name.starts_with("media/") || name.starts_with("posters/") || name == "dither.key").collect()
+}
+
+/// Acceptance: a set's media do not equal a public re-render, differ from the engine's pixels by
+/// at most one level per channel, and are reproduced exactly by the same key; `--no-dither`
+/// gives the public bytes; the manifest's sha256 is the file's, and the rebuild check never keeps
+/// files of another key.
+#[test]
+fn stimuli_dither_hides_media_from_a_public_re_render_and_the_same_key_reproduces_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let keyed = build(d, KEYED, "keyed");
+    let plain = build_with(d, KEYED, "plain", &["--no-dither"]);
+    assert!(!d.join("plain/dither.key").exists(), "--no-dither writes no key");
+    assert_eq!(keyed.len(), 5);
+    for (k, p) in keyed.iter().zip(&plain) {
+        let (kb, pb) = (std::fs::read(d.join("keyed").join(&k.file)).unwrap(), std::fs::read(d.join("plain").join(&p.file)).unwrap());
+        assert_eq!((sha256(&kb), sha256(&pb)), (k.sha256.clone(), p.sha256.clone()), "the manifest's sha256 is the file's true hash");
+        assert_eq!((k.dither.len(), p.dither.as_str()), (16, ""));
+        let public = public_render(d, &d.join("plain"), p, &format!("public-{}", p.stimulus_id));
+        assert!(pb == public, "{} {}: the --no-dither file is the public render", p.expression, p.media);
+        assert!(kb != public, "{} {}: the dithered file equals the public render", k.expression, k.media);
+    }
+    // Stills and posters: at most one level per channel from the engine's pixels, and not zero everywhere.
+    let video = keyed.iter().find(|r| r.media == "video").unwrap();
+    let mut pictures: Vec<String> = keyed.iter().filter(|r| r.media == "image").map(|r| r.file.clone()).collect();
+    pictures.push(format!("posters/{}.png", video.stimulus_id));
+    for file in &pictures {
+        let (k, p) = (rgb(&std::fs::read(d.join("keyed").join(file)).unwrap()), rgb(&std::fs::read(d.join("plain").join(file)).unwrap()));
+        assert_eq!((k.0, k.1), (p.0, p.1));
+        let steps: Vec<u8> = k.2.iter().zip(&p.2).map(|(a, b)| a.abs_diff(*b)).collect();
+        assert!(steps.iter().all(|&s| s <= 1), "{file}: a channel moved by {}", steps.iter().max().unwrap());
+        let moved = steps.iter().filter(|&&s| s == 1).count();
+        assert!(moved > steps.len() / 8, "{file}: only {moved} of {} channels moved", steps.len());
+    }
+
+    // The same key reproduces the bytes: again into the same directory (nothing to do) and into another one.
+    let before = files(&d.join("keyed"));
+    let again = facslab_ok(d, &["stimuli", "build", "spec.toml", "-o", "keyed"]);
+    assert!(stderr(&again).contains("(0 rendered, 5 up to date"), "{}", stderr(&again));
+    assert_eq!(files(&d.join("keyed")), before);
+    std::fs::remove_dir_all(d.join("keyed/media")).unwrap();
+    let again = facslab_ok(d, &["stimuli", "build", "spec.toml", "-o", "keyed"]);
+    assert!(stderr(&again).contains("(5 rendered, 0 up to date"), "{}", stderr(&again));
+    assert_eq!(files(&d.join("keyed")), before, "rendered again with the kept key: the same bytes");
+    build_with(d, KEYED, "copy", &["--dither-key", "keyed/dither.key"]);
+    assert_eq!(files(&d.join("copy")), before);
+
+    // Another key: every picture differs, and the up-to-date check keeps nothing of the old key.
+    facslab_ok(d, &["stimuli", "key", "-o", "other.key"]);
+    let switched = facslab_ok(d, &["stimuli", "build", "spec.toml", "-o", "copy", "--dither-key", "other.key"]);
+    assert!(stderr(&switched).contains("(5 rendered, 0 up to date"), "{}", stderr(&switched));
+    let (old, new) = (dithered_files(&d.join("keyed")), dithered_files(&d.join("copy")));
+    assert_eq!(old.len(), new.len());
+    for (name, bytes) in &old {
+        assert!(new[name] != *bytes, "{name} is the same with another key");
+    }
+    assert_eq!(new["dither.key"], std::fs::read(d.join("other.key")).unwrap());
+    let undithered = facslab_ok(d, &["stimuli", "build", "spec.toml", "-o", "copy", "--no-dither"]);
+    assert!(stderr(&undithered).contains("(5 rendered, 0 up to date"), "{}", stderr(&undithered));
+    assert_eq!(dithered_files(&d.join("copy")).into_iter().filter(|(n, _)| n != "dither.key").collect::<BTreeMap<_, _>>(),
+        dithered_files(&d.join("plain")));
+}
+
+/// A key file that is not a key is refused before anything is built, naming the file and not quoting it.
+#[test]
+fn stimuli_a_bad_dither_key_file_is_refused_naming_it() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("spec.toml"), KEYED).unwrap();
+    std::fs::write(dir.path().join("short.key"), "0123456789abcdef\n").unwrap();
+    let out = facslab(dir.path(), &["stimuli", "build", "spec.toml", "-o", "set", "--dither-key", "short.key"]);
+    assert!(!out.status.success());
+    let err = stderr(&out);
+    assert!(err.contains("short.key: not a dither key: it has 16 hex digits, a key has 64") && !err.contains("0123456789abcdef"), "{err}");
+    assert!(!dir.path().join("set").exists(), "nothing was built");
+    let both = facslab(dir.path(), &["stimuli", "build", "spec.toml", "-o", "set", "--dither-key", "short.key", "--no-dither"]);
+    assert!(!both.status.success() && stderr(&both).contains("cannot be used with"), "{}", stderr(&both));
 }
