@@ -538,13 +538,13 @@ fn au_sheet(identity: &Identity, settings: FrameSettings, columns: u32) -> anyho
         }
     }
     let mut sheet = ContactSheet::new(columns);
-    let total = entries.len();
-    for (n, (notation, caption)) in entries.into_iter().enumerate() {
-        eprint!("\rrendering {}/{total}", n + 1);
+    let bar = crate::progress::bar(entries.len() as u64, "stills", format!("AU sheet of {}", identity.id));
+    for (notation, caption) in entries {
         let expression = catalog.parse(&notation)?;
         sheet.push(engine::render_still(&expression, identity, settings)?, caption);
+        bar.inc(1);
     }
-    eprintln!();
+    bar.finish_and_clear();
     Ok(sheet)
 }
 
@@ -615,13 +615,10 @@ fn render_timeline_video(timeline: &Timeline, output: &Path, threads: Option<usi
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads.unwrap_or(0)).build()?;
     let mut first = None;
     let mut all_frames = Vec::new();
-    let total = timeline.frame_count();
-    let tty = std::io::IsTerminal::is_terminal(&std::io::stderr());
+    let bar = crate::progress::bar(timeline.frame_count() as u64, "frames", "video");
     let bytes = pool.install(|| {
         stimuli::render_video(timeline, settings, frames, true, None, None, &mut |frame, image| {
-            if tty {
-                eprint!("\rrendering frame {}/{total}", frame + 1);
-            }
+            bar.set_position(frame as u64 + 1);
             if frame == 0 {
                 first = Some(image.clone());
             }
@@ -633,9 +630,7 @@ fn render_timeline_video(timeline: &Timeline, output: &Path, threads: Option<usi
     #[cfg(feature = "av1")]
     let bytes = if av1 { engine::video::encode_av1_mp4(&all_frames, timeline.fps)? } else { bytes };
     drop(all_frames);
-    if tty {
-        eprintln!();
-    }
+    bar.finish_and_clear();
     stimuli::build::write_atomic(output, &bytes)?;
     if let (Some(path), Some(image)) = (poster, first) {
         check_png_path(path)?;

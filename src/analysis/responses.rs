@@ -13,7 +13,6 @@ use std::path::Path;
 
 use super::input::{Fields, FxHashMap, InputError, Place, TableInput};
 use super::manifest::Manifest;
-use crate::stimuli::manifest::csv_field;
 use crate::facs::{Catalog, EmotionTable, Expression};
 use crate::study::measure::{About, DECLARATIONS, Demographic, LabelSet, Measure, Value};
 
@@ -92,11 +91,9 @@ pub struct LongRow {
 impl LongRow {
     /// Appends the row as a CSV line under [`LONG_HEADER`].
     pub fn write_csv(&self, out: &mut String) {
-        use std::fmt::Write;
         let trial = self.trial.map(|t| t.to_string()).unwrap_or_default();
         let rt = self.rt_ms.map(|v| v.to_string()).unwrap_or_default();
-        let (pid, group, sid, value) = (csv_field(&self.participant_id), csv_field(&self.group), csv_field(&self.stimulus_id), csv_field(&self.value));
-        let _ = writeln!(out, "{pid},{group},{sid},{trial},{},{value},{rt}", self.measure.name());
+        crate::tabular::record(out, [self.participant_id.as_str(), &self.group, &self.stimulus_id, &trial, self.measure.name(), &self.value, &rt]);
     }
 }
 

@@ -15,7 +15,6 @@ use tokio::sync::mpsc;
 use super::participants::Demographics;
 use super::{Db, DbError};
 use crate::analysis::responses::LongRow;
-use crate::stimuli::manifest::csv_field;
 use crate::study::StudyDesign;
 use crate::study::measure::{Demographic, Kind, Measure};
 
@@ -121,8 +120,8 @@ impl ParticipantRecord {
 
     fn wide_row(&self, columns: &[(String, String)], out: &mut String) {
         let d = self.demographics.clone().unwrap_or_default();
-        let mut cells = vec![csv_field(&self.participant_id), csv_field(&self.group)];
-        cells.extend(Demographic::ALL.map(|m| csv_field(&d.text(m))));
+        let mut cells = vec![self.participant_id.clone(), self.group.clone()];
+        cells.extend(Demographic::ALL.map(|m| d.text(m)));
         let answers: HashMap<(&str, &str), &str> = self
             .trials
             .iter()
@@ -130,10 +129,9 @@ impl ParticipantRecord {
             .flat_map(|t| t.answers.iter().map(move |(m, v)| ((t.stimulus_id.as_str(), m.as_str()), v.as_str())))
             .collect();
         for (stimulus, measure) in columns {
-            cells.push(answers.get(&(stimulus.as_str(), measure.as_str())).map(|v| csv_field(v)).unwrap_or_default());
+            cells.push(answers.get(&(stimulus.as_str(), measure.as_str())).map(|v| v.to_string()).unwrap_or_default());
         }
-        out.push_str(&cells.join(","));
-        out.push('\n');
+        crate::tabular::record(out, cells);
     }
 }
 
@@ -286,11 +284,8 @@ fn head(format: Format, columns: &[(String, String)]) -> String {
     match format {
         Format::Long => LONG_HEADER.to_string(),
         Format::Wide => {
-            let mut h = ["participant_id", "group"].into_iter().chain(Demographic::ALL.map(Demographic::name)).collect::<Vec<_>>().join(",");
-            for (s, m) in columns {
-                h.push_str(&format!(",{}", csv_field(&format!("{s}:{m}"))));
-            }
-            h + "\n"
+            let fixed = ["participant_id", "group"].into_iter().chain(Demographic::ALL.map(Demographic::name)).map(String::from);
+            crate::tabular::line(fixed.chain(columns.iter().map(|(s, m)| format!("{s}:{m}"))))
         }
         Format::Json => "{\"participants\": [\n".to_string(),
     }
@@ -314,7 +309,7 @@ fn emit(record: &ParticipantRecord, format: Format, columns: &[(String, String)]
 pub fn codebook(design: &StudyDesign) -> String {
     let mut out = String::from("file,column,description,levels\n");
     let mut row = |file: &str, column: &str, description: &str, levels: &str| {
-        out.push_str(&format!("{file},{},{},{}\n", csv_field(column), csv_field(description), csv_field(levels)));
+        crate::tabular::record(&mut out, [file, column, description, levels]);
     };
     let long = "responses.csv";
     let measures: Vec<Measure> = design.measures().into_iter().chain(Demographic::ALL.map(Measure::Demographic)).collect();

@@ -283,14 +283,7 @@ pub fn build(spec: &SetSpec, out: &Path, options: &BuildOptions) -> Result<Build
         })
         .sum();
     let bar = if options.progress {
-        let bar = indicatif::ProgressBar::with_draw_target(Some(frames_todo as u64), indicatif::ProgressDrawTarget::stderr());
-        bar.set_style(
-            indicatif::ProgressStyle::with_template("{spinner} {msg} [{bar:30}] {pos}/{len} frames, {elapsed} elapsed, eta {eta}")
-                .expect("a valid progress template")
-                .progress_chars("=> "),
-        );
-        bar.set_message(format!("{}: {} stimuli ({} up to date)", spec.name, plans.len(), plans.len() - todo.len()));
-        bar
+        crate::progress::bar(frames_todo as u64, "frames", format!("{}: {} stimuli ({} up to date)", spec.name, plans.len(), plans.len() - todo.len()))
     } else {
         indicatif::ProgressBar::hidden()
     };

@@ -88,15 +88,6 @@ fn opt<T: ToString>(v: &Option<T>) -> String {
     v.as_ref().map(T::to_string).unwrap_or_default()
 }
 
-/// Quotes a CSV field when it needs it (RFC 4180).
-pub fn csv_field(text: &str) -> String {
-    if text.contains([',', '"', '\n', '\r']) {
-        format!("\"{}\"", text.replace('"', "\"\""))
-    } else {
-        text.to_string()
-    }
-}
-
 impl ManifestRow {
     fn csv_fields(&self) -> Vec<String> {
         vec![
@@ -124,11 +115,9 @@ impl ManifestRow {
 
 /// `manifest.csv`: a header line with [`COLUMNS`], then one line per row.
 pub fn to_csv(rows: &[ManifestRow]) -> String {
-    let mut out = COLUMNS.join(",");
-    out.push('\n');
+    let mut out = crate::tabular::line(COLUMNS);
     for row in rows {
-        out.push_str(&row.csv_fields().iter().map(|f| csv_field(f)).collect::<Vec<_>>().join(","));
-        out.push('\n');
+        crate::tabular::record(&mut out, row.csv_fields());
     }
     out
 }
