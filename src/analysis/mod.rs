@@ -21,7 +21,6 @@
 //!   scikit-learn, dtaidistance, tslearn, kmedoids).
 
 mod input;
-pub mod cli;
 pub mod coding;
 pub mod demographics;
 pub mod manifest;

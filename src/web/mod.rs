@@ -9,7 +9,6 @@
 //! logins and starts are rate limited per account and per client address ([`limit`]).
 
 pub mod admin;
-pub mod cli;
 pub mod error;
 pub mod extract;
 pub mod limit;

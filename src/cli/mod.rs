@@ -1,5 +1,10 @@
 //! The command line: parses arguments with clap and calls the library. The only place where
-//! errors become messages for people (with `anyhow` context) and exit codes.
+//! errors become messages for people (with `anyhow` context) and exit codes. This module holds the
+//! engine and stimulus commands; [`analysis`] holds `analyze`, `simulate` and `convert`; [`web`]
+//! the study platform's `serve`, `demo`, `study`, `admin`, `export` and `report`.
+
+pub mod analysis;
+pub mod web;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -142,11 +147,11 @@ enum Command {
 
     /// Compute the validation report from responses and the stimulus manifest.
     #[command(after_help = "Examples:\n  facslab analyze --responses responses.csv --manifest manifest.csv -o report\n  facslab analyze --responses r.csv --manifest m.csv -o strict --match-side --match-intensity\n  facslab analyze --responses r.parquet --manifest m.parquet -o report   # built with --features polars\n\nWrites report.json (every number), report.html (tables and plots), one CSV per table and\nthe plots as PNG files. Inputs are validated in full first; on any error nothing is written.\nFiles ending in .parquet are read as Parquet (same results and error messages as CSV).")]
-    Analyze(crate::analysis::cli::AnalyzeArgs),
+    Analyze(analysis::AnalyzeArgs),
 
     /// Build the demo stimulus set and two demo studies, then serve them and print the URLs.
     #[command(after_help = "Examples:\n  facslab demo                       # http://127.0.0.1:8080/s/demo-emotions, /s/demo-coding, /admin\n  facslab demo --port 9000 -o /tmp/demo\n\nEverything lives in the output directory (default facslab-demo/): the stimulus set, the\nSQLite database and the admin password (admin-password.txt). Running it again reuses them.")]
-    Demo(crate::web::cli::DemoArgs),
+    Demo(web::DemoArgs),
 
     /// Compose and preview expressions in the browser; serves the live render API.
     #[command(after_help = "Examples:\n  facslab studio                      # then open http://127.0.0.1:8090/\n  facslab studio --port 9000\n\nAPI: POST /api/v1/render {\"expression\": \"1+2+5B\", \"identity\": \"wf1\", \"size\": \"485x480\"} -> PNG\n(the bytes `facslab render` writes); {\"timeline\": {...}} -> MP4; WebSocket /api/v1/stream.\nProtocol and client examples: docs/studio.md.")]
@@ -154,31 +159,31 @@ enum Command {
 
     /// Serve the study web app (participants and admin) from a study database.
     #[command(after_help = "Examples:\n  facslab serve --db lab.db\n  facslab serve --db lab.db --host 0.0.0.0 --port 8080\n\nCreate studies with `facslab study create` and the first admin with `facslab admin create`.")]
-    Serve(crate::web::cli::ServeArgs),
+    Serve(web::ServeArgs),
 
     /// Create, check, list, open and close studies.
     #[command(subcommand)]
-    Study(crate::web::cli::StudyCommand),
+    Study(web::StudyCommand),
 
     /// Admin accounts, export API tokens and backups.
     #[command(subcommand)]
-    Admin(crate::web::cli::AdminCommand),
+    Admin(web::AdminCommand),
 
     /// Export a study's responses (long CSV for `analyze`, wide CSV, JSON) or its codebook.
     #[command(after_help = "Examples:\n  facslab export --study exp3 --db lab.db -o responses.csv\n  facslab export --study exp3 --format wide.csv --all --db lab.db -o wide.csv")]
-    Export(crate::web::cli::ExportArgs),
+    Export(web::ExportArgs),
 
     /// The validation report of a study, straight from the study database.
     #[command(after_help = "Examples:\n  facslab report --study exp3 --db lab.db -o exp3-report\n  facslab report --study exp1 --db lab.db -o strict --match-side --match-intensity\n\nExports the study's long responses (kept in OUTPUT.inputs/responses.csv) and analyses them\nagainst the manifest of the study's stimulus set, as `facslab analyze` does.")]
-    Report(crate::web::cli::ReportArgs),
+    Report(web::ReportArgs),
 
     /// Write synthetic responses and a manifest shaped like one of the seed's experiments.
     #[command(after_help = "Examples:\n  facslab simulate --design exp1 --seed 1 -o sim1           # 3 coders, 49 single AUs\n  facslab simulate --design exp2 --accuracy 0.8 -o sim2       # 54 AU combinations\n  facslab simulate --design exp3 --participants 40 --groups local,amt --missing 0.02 -o sim3\n\nWrites DIR/responses.csv and DIR/manifest.csv; the same options give the same bytes.")]
-    Simulate(crate::analysis::cli::SimulateArgs),
+    Simulate(analysis::SimulateArgs),
 
     /// Convert a response file or a manifest between CSV and Parquet (needs the `polars` feature).
     #[command(after_help = "Examples:\n  facslab convert sim/responses.csv -o responses.parquet\n  facslab convert sim/manifest.csv -o manifest.parquet\n  facslab convert responses.parquet -o responses.csv\n  facslab analyze --responses responses.parquet --manifest manifest.parquet -o report\n\nThe direction follows the extensions (.parquet or CSV). A column is stored as Int64 or\nFloat64 when every cell converts back to the same text, else as String; empty cells are\nnulls. Converting back gives every cell exactly. Needs facslab built with\n`cargo build --release --features polars`; without it the command says so and stops.")]
-    Convert(crate::analysis::cli::ConvertArgs),
+    Convert(analysis::ConvertArgs),
 }
 
 #[derive(Subcommand)]
@@ -360,13 +365,13 @@ pub fn run() -> ExitCode {
 
 fn dispatch(command: Command) -> anyhow::Result<()> {
     match command {
-        Command::Demo(args) => crate::web::cli::demo_command(args),
-        Command::Serve(args) => crate::web::cli::serve_command(args),
+        Command::Demo(args) => web::demo_command(args),
+        Command::Serve(args) => web::serve_command(args),
         Command::Studio(args) => crate::studio::studio_command(args),
-        Command::Study(command) => crate::web::cli::study_command(command),
-        Command::Admin(command) => crate::web::cli::admin_command(command),
-        Command::Export(args) => crate::web::cli::export_command(args),
-        Command::Report(args) => crate::web::cli::report_command(args),
+        Command::Study(command) => web::study_command(command),
+        Command::Admin(command) => web::admin_command(command),
+        Command::Export(args) => web::export_command(args),
+        Command::Report(args) => web::report_command(args),
         Command::Catalog { appearance: Some(which) } => print_appearance(&which),
         Command::Catalog { appearance: None } => {
             for unit in Catalog::built_in().iter() {
@@ -522,9 +527,9 @@ fn dispatch(command: Command) -> anyhow::Result<()> {
             };
             write_png(&sheet.compose().encode_png(), &output)
         }
-        Command::Analyze(args) => crate::analysis::cli::analyze(args),
-        Command::Simulate(args) => crate::analysis::cli::simulate(args),
-        Command::Convert(args) => crate::analysis::cli::convert(args),
+        Command::Analyze(args) => analysis::analyze(args),
+        Command::Simulate(args) => analysis::simulate(args),
+        Command::Convert(args) => analysis::convert(args),
     }
 }
 

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, bail};
 use clap::{Args, Subcommand};
 
-use super::{AppState, serve};
+use crate::web::{AppState, serve};
 use crate::db::Db;
 use crate::db::admin::Role;
 use crate::db::export::{Format, Scope};
@@ -42,14 +42,14 @@ pub struct ServeArgs {
 
 impl ServeArgs {
     /// The edge configuration these options ask for.
-    pub fn edge(&self) -> anyhow::Result<super::EdgeConfig> {
+    pub fn edge(&self) -> anyhow::Result<crate::web::EdgeConfig> {
         let https = match self.public_url.as_deref() {
             None => false,
             Some(url) if url.starts_with("https://") && url.len() > 8 => true,
             Some(url) if url.starts_with("http://") && url.len() > 7 => false,
             Some(url) => bail!("--public-url \"{}\" is not an http:// or https:// URL", url.chars().take(60).collect::<String>()),
         };
-        Ok(super::EdgeConfig { https, trusted_proxy: self.trusted_proxy, starts_per_address: self.starts_per_address })
+        Ok(crate::web::EdgeConfig { https, trusted_proxy: self.trusted_proxy, starts_per_address: self.starts_per_address })
     }
 }
 

@@ -1,16 +1,16 @@
-//! The `analyze`, `simulate` and `convert` commands' arguments and bodies (wired up in `crate::cli`).
+//! The `analyze`, `simulate` and `convert` commands' arguments and bodies (wired up in [`super`]).
 
 use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::{Args, ValueEnum};
 
-use super::coding::CodingOptions;
-use super::is_parquet;
-use super::manifest::Manifest;
-use super::parquet;
-use super::responses::Responses;
-use super::simulate::{Confusion, Design, SimOptions, simulate as run_simulation};
+use crate::analysis::coding::CodingOptions;
+use crate::analysis::is_parquet;
+use crate::analysis::manifest::Manifest;
+use crate::analysis::parquet;
+use crate::analysis::responses::Responses;
+use crate::analysis::simulate::{Confusion, Design, SimOptions, simulate as run_simulation};
 use crate::facs::{Catalog, EmotionTable};
 
 #[derive(Args)]
