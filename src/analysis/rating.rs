@@ -523,7 +523,7 @@ fn anovas(ctx: &Context<'_>, media: Media, out: &mut Vec<Anova>) {
             cells.add(t, i, r.value);
         }
     }
-    fit("believability", cells);
+    fit(Scale::Believability.name(), cells);
 }
 
 /// Table 14: this study's image conditions beside the published figures.

@@ -13,3 +13,4 @@ mod server;
 mod stimuli;
 mod study;
 mod studio;
+mod tidy;
