@@ -162,3 +162,26 @@ fn tidy_measure_names_are_written_once() {
     }
     assert_eq!(found, Vec::<String>::new());
 }
+
+#[test]
+fn tidy_every_test_architecture_md_names_exists() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(root.join("ARCHITECTURE.md")).expect("ARCHITECTURE.md");
+    // Test names are long snake_case sentences in backticks (`module::a_test_that_says_what_holds`).
+    let named: Vec<&str> = text
+        .split('`')
+        .skip(1)
+        .step_by(2)
+        .filter_map(|quoted| quoted.rsplit("::").next())
+        .filter(|name| name.matches('_').count() >= 3 && name.chars().all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_'))
+        .collect();
+    assert!(named.len() >= 20, "only {} test names found in ARCHITECTURE.md", named.len());
+    let mut sources = String::new();
+    for dir in ["src", "tests"] {
+        for file in rust_files(&root.join(dir)) {
+            sources.push_str(&std::fs::read_to_string(file).expect("a source file"));
+        }
+    }
+    let missing: Vec<&str> = named.into_iter().filter(|name| !sources.contains(&format!("fn {name}("))).collect();
+    assert_eq!(missing, Vec::<&str>::new(), "ARCHITECTURE.md names tests that do not exist");
+}
