@@ -40,7 +40,7 @@ fn analyze(responses: &Path, manifest_path: &Path, out: &Path) -> u64 {
     let (catalog, emotions) = (Catalog::built_in(), EmotionTable::built_in());
     let manifest = Manifest::read(manifest_path, catalog, &emotions).expect("manifest");
     let responses_read = Responses::read(responses, &manifest, catalog, &emotions).expect("responses");
-    let report = facslab::report::build(&manifest, &responses_read, catalog, CodingOptions::default(), responses, manifest_path);
+    let report = facslab::report::build(&manifest, &responses_read, CodingOptions::default(), responses, manifest_path);
     facslab::report::write(&report, out).expect("report written");
     responses_read.rows
 }

@@ -94,7 +94,7 @@ pub fn analyze(args: AnalyzeArgs) -> anyhow::Result<()> {
     let manifest = Manifest::read(&args.manifest, catalog, &emotions)?;
     let responses = Responses::read(&args.responses, &manifest, catalog, &emotions)?;
     let options = CodingOptions { match_side: args.match_side, match_intensity: args.match_intensity };
-    let report = crate::report::build(&manifest, &responses, catalog, options, &args.responses, &args.manifest);
+    let report = crate::report::build(&manifest, &responses, options, &args.responses, &args.manifest);
     crate::report::write(&report, &args.output)?;
     eprintln!("analysed {} rows in {:.2} s; report in {}", responses.rows, started.elapsed().as_secs_f64(), args.output.display());
     Ok(())

@@ -320,7 +320,7 @@ pub fn report_command(args: ReportArgs) -> anyhow::Result<()> {
     let manifest = crate::analysis::manifest::Manifest::read(&manifest_path, catalog, &emotions)?;
     let responses = crate::analysis::responses::Responses::from_rows("responses.csv", &rows, &manifest, catalog)?;
     let options = crate::analysis::coding::CodingOptions { match_side: args.match_side, match_intensity: args.match_intensity };
-    let report = crate::report::build(&manifest, &responses, catalog, options, std::path::Path::new("responses.csv"), &manifest_path);
+    let report = crate::report::build(&manifest, &responses, options, std::path::Path::new("responses.csv"), &manifest_path);
     crate::report::write(&report, &args.output)?;
     let mut text = crate::analysis::responses::LONG_HEADER.to_string();
     rows.iter().for_each(|r| r.write_csv(&mut text));

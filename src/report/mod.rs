@@ -16,12 +16,12 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
-use crate::analysis::coding::{self, CodingOptions, CodingReport};
-use crate::analysis::demographics::{self, Demographics};
+use crate::analysis::Analysis;
+use crate::analysis::coding::{CodingOptions, CodingReport};
+use crate::analysis::demographics::Demographics;
 use crate::analysis::manifest::Manifest;
-use crate::analysis::rating::{self, RatingReport};
+use crate::analysis::rating::RatingReport;
 use crate::analysis::responses::Responses;
-use crate::facs::Catalog;
 
 /// What went in.
 #[derive(Debug, Clone, Serialize)]
@@ -67,15 +67,9 @@ fn file_name(p: &Path) -> String {
     p.file_name().map_or_else(|| p.display().to_string(), |n| n.to_string_lossy().into_owned())
 }
 
-/// Computes the report.
-pub fn build(
-    manifest: &Manifest,
-    responses: &Responses,
-    catalog: &Catalog,
-    options: CodingOptions,
-    responses_path: &Path,
-    manifest_path: &Path,
-) -> Report {
+/// The report of [`crate::analysis::analyze`] on these inputs (the paths only name them).
+pub fn build(manifest: &Manifest, responses: &Responses, options: CodingOptions, responses_path: &Path, manifest_path: &Path) -> Report {
+    let Analysis { coding, rating, demographics } = crate::analysis::analyze(manifest, responses, &options);
     Report {
         facslab_version: env!("CARGO_PKG_VERSION").to_string(),
         inputs: Inputs {
@@ -87,9 +81,9 @@ pub fn build(
             stimuli: manifest.len(),
         },
         options,
-        coding: coding::analyze(manifest, responses, catalog, options),
-        rating: rating::analyze(manifest, responses),
-        demographics: demographics::analyze(manifest, responses),
+        coding,
+        rating,
+        demographics,
     }
 }
 
@@ -157,7 +151,7 @@ pub fn write(report: &Report, dir: &Path) -> Result<(), ReportError> {
 mod tests {
     use super::*;
     use crate::analysis::simulate::{Design, SimOptions, simulate};
-    use crate::facs::EmotionTable;
+    use crate::facs::{Catalog, EmotionTable};
 
     fn report(design: Design, groups: &[&str]) -> Report {
         let options = SimOptions { design, seed: 3, participants: 4, groups: groups.iter().map(|g| g.to_string()).collect(), ..SimOptions::default() };
@@ -165,7 +159,7 @@ mod tests {
         let (catalog, emotions) = (Catalog::built_in(), EmotionTable::built_in());
         let manifest = Manifest::from_csv("manifest.csv", &manifest, catalog, &emotions).unwrap();
         let responses = Responses::from_csv("responses.csv", &responses, &manifest, catalog, &emotions).unwrap();
-        build(&manifest, &responses, catalog, CodingOptions::default(), Path::new("responses.csv"), Path::new("manifest.csv"))
+        build(&manifest, &responses, CodingOptions::default(), Path::new("responses.csv"), Path::new("manifest.csv"))
     }
 
     fn file<'a>(files: &'a [(String, Vec<u8>)], name: &str) -> &'a str {

@@ -11,6 +11,7 @@ use crate::analysis::coding::{AuCount, CodingReport, Counts, Metrics};
 use crate::analysis::demographics::Demographics;
 use crate::analysis::rating::{Condition, Describe, RatingReport};
 use crate::analysis::responses::Scale;
+use crate::study::measure::Demographic;
 
 const METRICS: [&str; 4] = ["accuracy", "precision", "recall", "f1"];
 const COUNTS: [&str; 4] = ["tp", "fp", "fn", "tn"];
@@ -352,10 +353,10 @@ fn table14(r: &RatingReport) -> Option<Table> {
 fn table6(d: &Demographics) -> Table {
     let mut rows = Vec::new();
     for r in &d.rows {
-        for (item, levels) in [("gender", &r.gender), ("ethnicity", &r.ethnicity), ("education", &r.education)] {
+        for (item, levels) in [(Demographic::Gender, &r.gender), (Demographic::Ethnicity, &r.ethnicity), (Demographic::Education, &r.education)] {
             for l in levels {
                 let stratum = [Cell::text(&r.stratum), Cell::count(r.participants), Cell::opt(r.mean_age, 1)];
-                let level = [Cell::text(item), Cell::text(&l.level), Cell::count(l.n), Cell::num(l.percent, 1), Cell::opt(l.mean_age, 1)];
+                let level = [Cell::text(item.name()), Cell::text(&l.level), Cell::count(l.n), Cell::num(l.percent, 1), Cell::opt(l.mean_age, 1)];
                 rows.push(Row::new(stratum.into_iter().chain(level).collect()));
             }
         }
@@ -368,7 +369,7 @@ fn table6(d: &Demographics) -> Table {
         keys: vec!["stratum".into()],
         last: None,
         lead: vec!["Stimuli".into(), "# of subjects".into(), "Mean age".into()],
-        spreads: vec![spread("gender", "{} (age avg.)", true), spread("ethnicity", "{}", false)],
+        spreads: vec![spread(Demographic::Gender.name(), "{} (age avg.)", true), spread(Demographic::Ethnicity.name(), "{}", false)],
         lines: vec![Line {
             lead: vec![Pattern::parse("{stratum}"), Pattern::parse("{participants}"), Pattern::parse("{mean_age}")],
             values: vec![Pattern::parse("{percent}% ({level_mean_age})"), Pattern::parse("{percent}%")],
