@@ -13,9 +13,9 @@ use axum::http::{HeaderValue, StatusCode, header};
 use axum::response::{IntoResponse, Redirect, Response};
 use axum::routing::{get, post};
 use axum::{Json, Router};
-use serde_json::json;
 use axum_extra::extract::CookieJar;
 use axum_extra::extract::cookie::SameSite;
+use serde_json::json;
 use tower_http::services::ServeFile;
 
 use super::extract::{ParticipationToken, TrialPosition};
