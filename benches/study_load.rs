@@ -113,7 +113,7 @@ async fn run_once() -> Run {
     let db = Db::open(&dir.path().join("load.db")).await.expect("database");
     let design = StudyDesign::from_toml(DESIGN).expect("design");
     let stimuli: Vec<StudyStimulus> = (0..TRIALS)
-        .map(|i| StudyStimulus { stimulus_id: format!("s{i:02}"), media: "image".into(), file: format!("media/s{i:02}.png"), emotion: String::new() })
+        .map(|i| StudyStimulus::still(facslab::stimuli::StimulusId::parse(&facslab::stimuli::stimulus_id(1, i)).expect("id")))
         .collect();
     let study = db.create_study(&design, DESIGN, "set", &stimuli, true).await.expect("study");
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.expect("listen");

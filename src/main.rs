@@ -3,5 +3,6 @@
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
+    facslab::web::log::install();
     facslab::cli::run()
 }

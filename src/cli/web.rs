@@ -10,6 +10,7 @@ use crate::web::{AppState, serve};
 use crate::db::Db;
 use crate::db::admin::Role;
 use crate::db::export::{Format, Scope};
+use crate::db::studies::StudyStatus;
 use crate::study::StudyDesign;
 
 /// The demo's stimulus set and study designs (compiled in, so `demo` runs anywhere).
@@ -98,8 +99,8 @@ pub enum StudyCommand {
     #[command(after_help = "Example:\n  facslab study status exp3 open --db lab.db")]
     Status {
         slug: String,
-        #[arg(value_parser = ["draft", "open", "closed"])]
-        status: String,
+        #[arg(value_parser = parse_status)]
+        status: StudyStatus,
         #[arg(long, default_value = "facslab.db")]
         db: PathBuf,
     },
@@ -161,6 +162,12 @@ pub struct ExportArgs {
     pub output: PathBuf,
 }
 
+/// A study status given on the command line (draft, open or closed).
+fn parse_status(text: &str) -> Result<StudyStatus, String> {
+    let allowed: Vec<_> = StudyStatus::ALL.iter().map(|s| s.as_str()).collect();
+    StudyStatus::parse(text).ok_or_else(|| format!("not one of {}", allowed.join(", ")))
+}
+
 fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
     Ok(tokio::runtime::Builder::new_multi_thread().enable_all().build()?)
 }
@@ -195,7 +202,7 @@ pub fn study_command(command: StudyCommand) -> anyhow::Result<()> {
             let set = set.unwrap_or_else(|| design.parent().unwrap_or(Path::new(".")).join(&parsed.stimuli));
             let db = open(&db).await?;
             let d = db.create_study_from(&text, &set, open_now).await.with_context(|| format!("creating the study of {}", design.display()))?;
-            println!("created study \"{}\" ({}) over {}; participants start at /s/{}", d.slug, if open_now { "open" } else { "draft" }, set.display(), d.slug);
+            println!("created study \"{}\" ({}) over {}; participants start at /s/{}", d.slug, if open_now { StudyStatus::Open } else { StudyStatus::Draft }, set.display(), d.slug);
             Ok(())
         }),
         StudyCommand::List { db } => runtime()?.block_on(async {
@@ -207,7 +214,7 @@ pub fn study_command(command: StudyCommand) -> anyhow::Result<()> {
             Ok(())
         }),
         StudyCommand::Status { slug, status, db } => runtime()?.block_on(async {
-            open(&db).await?.set_study_status(&slug, &status).await?;
+            open(&db).await?.set_study_status(&slug, status).await?;
             println!("{slug}: {status}");
             Ok(())
         }),

@@ -15,6 +15,7 @@ use tokio::sync::mpsc;
 use super::participants::Demographics;
 use super::{Db, DbError};
 use crate::analysis::responses::LongRow;
+use crate::stimuli::manifest::StimulusId;
 use crate::study::StudyDesign;
 use crate::study::measure::{Demographic, Kind, Measure};
 
@@ -145,7 +146,7 @@ fn scope_sql(scope: Scope) -> &'static str {
 
 impl Db {
     /// Streams an export as text chunks (the receiver ends after the last chunk or an error).
-    pub fn export(&self, study_id: i64, design: &StudyDesign, stimuli: Vec<String>, format: Format, scope: Scope) -> mpsc::Receiver<Result<String, DbError>> {
+    pub fn export(&self, study_id: i64, design: &StudyDesign, stimuli: Vec<StimulusId>, format: Format, scope: Scope) -> mpsc::Receiver<Result<String, DbError>> {
         let (tx, rx) = mpsc::channel(16);
         let db = self.clone();
         let measures = measures(design);
@@ -179,8 +180,8 @@ impl Db {
         failure.map_or(Ok(rows), Err)
     }
 
-    async fn export_into(&self, study_id: i64, measures: &[String], stimuli: &[String], format: Format, scope: Scope, tx: &mpsc::Sender<Result<String, DbError>>) -> Result<(), DbError> {
-        let columns: Vec<(String, String)> = stimuli.iter().flat_map(|s| measures.iter().map(move |m| (s.clone(), m.clone()))).collect();
+    async fn export_into(&self, study_id: i64, measures: &[String], stimuli: &[StimulusId], format: Format, scope: Scope, tx: &mpsc::Sender<Result<String, DbError>>) -> Result<(), DbError> {
+        let columns: Vec<(String, String)> = stimuli.iter().flat_map(|s| measures.iter().map(move |m| (s.to_string(), m.clone()))).collect();
         if tx.send(Ok(head(format, &columns))).await.is_err() {
             return Ok(());
         }

@@ -92,7 +92,7 @@ async fn checkpoint_forever(checkpointer: SqlitePool, writes: tokio::sync::mpsc:
             return;
         }
         if let Err(e) = sqlx::raw_sql("PRAGMA wal_checkpoint(PASSIVE)").execute(&checkpointer).await {
-            eprintln!("checkpoint: {e}");
+            tracing::warn!(error = %e, "WAL checkpoint failed");
         }
     }
 }

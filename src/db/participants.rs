@@ -11,8 +11,10 @@ use std::collections::hash_map::Entry;
 
 use sqlx::{Row, SqliteConnection};
 
+use super::studies::stored;
 use super::writer::{Request, Written};
 use super::{Db, DbError, now_ms, secret_token, token_sha256};
+use crate::stimuli::manifest::StimulusId;
 use crate::study::assign::{self, PlannedTrial, TrialKind};
 use crate::study::task::passes_check;
 use crate::study::{Answer, SessionState, StudyDesign};
@@ -36,7 +38,7 @@ pub struct Participation {
 pub struct TrialRow {
     pub position: i64,
     pub kind: TrialKind,
-    pub stimulus_id: String,
+    pub stimulus_id: StimulusId,
     pub check_index: Option<usize>,
     pub answered: bool,
 }
@@ -189,11 +191,11 @@ impl Db {
         .await?;
         rows.into_iter()
             .map(|r| {
-                let kind: String = r.get(1);
+                let (kind, id): (&str, &str) = (r.get(1), r.get(2));
                 Ok(TrialRow {
                     position: r.get(0),
-                    kind: TrialKind::parse(&kind).ok_or_else(|| DbError::Internal(format!("unknown trial kind \"{kind}\"")))?,
-                    stimulus_id: r.get(2),
+                    kind: stored(TrialKind::parse(kind), "trial kind", kind)?,
+                    stimulus_id: stored(StimulusId::parse(id).ok(), "stimulus id", id)?,
                     check_index: r.get::<Option<i64>, _>(3).map(|i| i as usize),
                     answered: r.get::<i64, _>(4) != 0,
                 })

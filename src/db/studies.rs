@@ -1,9 +1,56 @@
 //! Studies and their stimuli: create from a design and a built set, list, open and close.
+//!
+//! In: a design's TOML and a built set's manifest. Out: typed rows. A study's status is a
+//! [`StudyStatus`], a stimulus's id a [`StimulusId`] and its kind a [`Media`]: each is parsed
+//! when read (from the manifest or the database), and a stored value that is none of them is a
+//! [`DbError::Internal`] naming it.
 
 use sqlx::Row;
 
 use super::{Db, DbError, now_ms};
+use crate::stimuli::manifest::{Media, StimulusId};
 use crate::study::StudyDesign;
+
+/// Where a study stands: participants can start only while it is open.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum StudyStatus {
+    /// Being prepared; no participant can start.
+    Draft,
+    /// Taking participants.
+    Open,
+    /// No new participants; the data stay.
+    Closed,
+}
+
+impl StudyStatus {
+    pub const ALL: [StudyStatus; 3] = [StudyStatus::Draft, StudyStatus::Open, StudyStatus::Closed];
+
+    pub fn as_str(self) -> &'static str {
+        match self {
+            StudyStatus::Draft => "draft",
+            StudyStatus::Open => "open",
+            StudyStatus::Closed => "closed",
+        }
+    }
+
+    pub fn parse(text: &str) -> Option<StudyStatus> {
+        StudyStatus::ALL.into_iter().find(|s| s.as_str() == text)
+    }
+}
+
+impl std::fmt::Display for StudyStatus {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.pad(self.as_str())
+    }
+}
+
+/// A stored value that should be one of a few spellings, parsed, or an internal error naming
+/// what it was and where it was read.
+pub(crate) fn stored<T>(parsed: Option<T>, what: &str, value: &str) -> Result<T, DbError> {
+    let shown: String = value.chars().take(40).collect();
+    parsed.ok_or_else(|| DbError::Internal(format!("the database holds an unknown {what} \"{shown}\"")))
+}
 
 /// A study as stored.
 #[derive(Debug, Clone, serde::Serialize)]
@@ -11,7 +58,7 @@ pub struct StudyRow {
     pub id: i64,
     pub slug: String,
     pub title: String,
-    pub status: String,
+    pub status: StudyStatus,
     pub set_dir: String,
     #[serde(skip)]
     pub spec_toml: String,
@@ -27,10 +74,18 @@ impl StudyRow {
 /// One stimulus a study shows.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct StudyStimulus {
-    pub stimulus_id: String,
-    pub media: String,
+    pub stimulus_id: StimulusId,
+    pub media: Media,
     pub file: String,
     pub emotion: String,
+}
+
+impl StudyStimulus {
+    /// The still `media/<id>.png` without an emotion label.
+    pub fn still(stimulus_id: StimulusId) -> StudyStimulus {
+        let file = format!("media/{stimulus_id}.png");
+        StudyStimulus { stimulus_id, media: Media::Image, file, emotion: String::new() }
+    }
 }
 
 /// Participation counts of one study, for the dashboard.
@@ -47,15 +102,26 @@ pub struct Progress {
     pub stimuli: i64,
 }
 
-fn study_row(row: sqlx::sqlite::SqliteRow) -> StudyRow {
-    StudyRow {
+fn study_row(row: sqlx::sqlite::SqliteRow) -> Result<StudyRow, DbError> {
+    let status: &str = row.get("status");
+    Ok(StudyRow {
         id: row.get("id"),
         slug: row.get("slug"),
         title: row.get("title"),
-        status: row.get("status"),
+        status: stored(StudyStatus::parse(status), "study status", status)?,
         set_dir: row.get("set_dir"),
         spec_toml: row.get("spec_toml"),
-    }
+    })
+}
+
+fn study_stimulus(row: sqlx::sqlite::SqliteRow) -> Result<StudyStimulus, DbError> {
+    let (id, media): (&str, &str) = (row.get(0), row.get(1));
+    Ok(StudyStimulus {
+        stimulus_id: stored(StimulusId::parse(id).ok(), "stimulus id", id)?,
+        media: stored(Media::parse(media), "media kind", media)?,
+        file: row.get(2),
+        emotion: row.get(3),
+    })
 }
 
 impl Db {
@@ -71,7 +137,7 @@ impl Db {
             .bind(&design.title)
             .bind(spec_toml)
             .bind(set_dir)
-            .bind(if open { "open" } else { "draft" })
+            .bind(if open { StudyStatus::Open } else { StudyStatus::Draft }.as_str())
             .bind(now_ms())
             .fetch_one(&mut *tx)
             .await?
@@ -79,8 +145,8 @@ impl Db {
         for s in stimuli {
             sqlx::query("INSERT INTO stimuli (study_id, stimulus_id, media, file, emotion) VALUES (?, ?, ?, ?, ?)")
                 .bind(id)
-                .bind(&s.stimulus_id)
-                .bind(&s.media)
+                .bind(s.stimulus_id.as_str())
+                .bind(s.media.as_str())
                 .bind(&s.file)
                 .bind(&s.emotion)
                 .execute(&mut *tx)
@@ -101,20 +167,19 @@ impl Db {
     }
 
     pub async fn study_by_slug(&self, slug: &str) -> Result<Option<StudyRow>, DbError> {
-        Ok(sqlx::query("SELECT * FROM studies WHERE slug = ?").bind(slug).fetch_optional(&self.reader).await?.map(study_row))
+        sqlx::query("SELECT * FROM studies WHERE slug = ?").bind(slug).fetch_optional(&self.reader).await?.map(study_row).transpose()
     }
 
     pub async fn study_by_id(&self, id: i64) -> Result<Option<StudyRow>, DbError> {
-        Ok(sqlx::query("SELECT * FROM studies WHERE id = ?").bind(id).fetch_optional(&self.reader).await?.map(study_row))
+        sqlx::query("SELECT * FROM studies WHERE id = ?").bind(id).fetch_optional(&self.reader).await?.map(study_row).transpose()
     }
 
     pub async fn studies(&self) -> Result<Vec<StudyRow>, DbError> {
-        Ok(sqlx::query("SELECT * FROM studies ORDER BY id").fetch_all(&self.reader).await?.into_iter().map(study_row).collect())
+        sqlx::query("SELECT * FROM studies ORDER BY id").fetch_all(&self.reader).await?.into_iter().map(study_row).collect()
     }
 
-    /// Sets `draft`, `open` or `closed`.
-    pub async fn set_study_status(&self, slug: &str, status: &str) -> Result<(), DbError> {
-        let done = sqlx::query("UPDATE studies SET status = ? WHERE slug = ?").bind(status).bind(slug).execute(&self.writer).await?;
+    pub async fn set_study_status(&self, slug: &str, status: StudyStatus) -> Result<(), DbError> {
+        let done = sqlx::query("UPDATE studies SET status = ? WHERE slug = ?").bind(status.as_str()).bind(slug).execute(&self.writer).await?;
         if done.rows_affected() == 0 {
             return Err(DbError::NotFound(format!("no study \"{slug}\"")));
         }
@@ -126,10 +191,7 @@ impl Db {
             .bind(study_id)
             .fetch_all(&self.reader)
             .await?;
-        Ok(rows
-            .into_iter()
-            .map(|r| StudyStimulus { stimulus_id: r.get(0), media: r.get(1), file: r.get(2), emotion: r.get(3) })
-            .collect())
+        rows.into_iter().map(study_stimulus).collect()
     }
 
     pub async fn progress(&self, study_id: i64) -> Result<Progress, DbError> {
@@ -160,7 +222,7 @@ impl Db {
     }
 
     /// Completed, non-excluded main-trial responses per stimulus (for balance checks and the dashboard).
-    pub async fn completed_counts(&self, study_id: i64) -> Result<Vec<(String, i64)>, DbError> {
+    pub async fn completed_counts(&self, study_id: i64) -> Result<Vec<(StimulusId, i64)>, DbError> {
         let rows = sqlx::query(
             "SELECT s.stimulus_id, COUNT(r.id) FROM stimuli s
              LEFT JOIN trials t ON t.stimulus_id = s.stimulus_id AND t.kind = 'trial'
@@ -171,7 +233,12 @@ impl Db {
         .bind(study_id)
         .fetch_all(&self.reader)
         .await?;
-        Ok(rows.into_iter().map(|r| (r.get(0), r.get(1))).collect())
+        rows.into_iter()
+            .map(|r| {
+                let id: &str = r.get(0);
+                Ok((stored(StimulusId::parse(id).ok(), "stimulus id", id)?, r.get(1)))
+            })
+            .collect()
     }
 }
 
@@ -181,7 +248,8 @@ pub fn set_stimuli(set_dir: &std::path::Path, media: crate::study::design::Media
     let text = std::fs::read_to_string(&manifest).map_err(|e| DbError::NotFound(format!("{}: {e} (build the set first: facslab stimuli build SPEC -o DIR)", manifest.display())))?;
     let rows: Vec<crate::stimuli::manifest::ManifestRow> = serde_json::from_str(&text).map_err(|e| DbError::Invalid(format!("{}: {e}", manifest.display())))?;
     let mut stimuli = Vec::new();
-    for row in rows.into_iter().filter(|r| media.admits(&r.media)) {
+    for row in rows.into_iter().filter(|r| media.admits(r.media)) {
+        let id = StimulusId::parse(&row.stimulus_id).map_err(|e| DbError::Invalid(format!("{}: {e}", manifest.display())))?;
         let relative = std::path::Path::new(&row.file);
         if !crate::stimuli::manifest::is_media_path(&row.file) {
             let shown: String = row.file.chars().take(80).collect();
@@ -190,10 +258,40 @@ pub fn set_stimuli(set_dir: &std::path::Path, media: crate::study::design::Media
         if !set_dir.join(relative).is_file() {
             return Err(DbError::NotFound(format!("{}: the file of stimulus {} is missing: {}", manifest.display(), row.stimulus_id, row.file)));
         }
-        stimuli.push(StudyStimulus { stimulus_id: row.stimulus_id, media: row.media, file: row.file, emotion: row.emotion });
+        stimuli.push(StudyStimulus { stimulus_id: id, media: row.media, file: row.file, emotion: row.emotion });
     }
     if stimuli.is_empty() {
         return Err(DbError::Invalid(format!("{}: no stimuli of the media this study asks for", manifest.display())));
     }
     Ok(stimuli)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[tokio::test]
+    async fn stored_values_that_are_none_of_the_spellings_are_named() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let db = Db::open(&dir.path().join("studies.db")).await.expect("database");
+        let rows = "PRAGMA ignore_check_constraints = ON;
+             INSERT INTO studies (id, slug, title, spec_toml, set_dir, status, created_at) VALUES (1, 'old', 'Old', '', 'set', 'paused', 0);
+             INSERT INTO stimuli (study_id, stimulus_id, media, file, emotion) VALUES (1, 's01', 'image', 'media/s01.png', '');
+             PRAGMA ignore_check_constraints = OFF;";
+        sqlx::raw_sql(rows).execute(&db.writer).await.expect("rows");
+        let status = db.study_by_slug("old").await.expect_err("an unknown status");
+        assert!(matches!(&status, DbError::Internal(m) if m.contains("unknown study status \"paused\"")), "{status}");
+        let id = db.study_stimuli(1).await.expect_err("an unknown stimulus id");
+        assert!(matches!(&id, DbError::Internal(m) if m.contains("unknown stimulus id \"s01\"")), "{id}");
+    }
+
+    #[test]
+    fn statuses_have_one_spelling() {
+        for status in StudyStatus::ALL {
+            assert_eq!(StudyStatus::parse(status.as_str()), Some(status));
+            assert_eq!(serde_json::to_value(status).expect("json"), status.as_str());
+        }
+        assert_eq!(StudyStatus::parse("paused"), None);
+        assert_eq!(format!("{:<7}|", StudyStatus::Open), "open   |");
+    }
 }

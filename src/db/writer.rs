@@ -225,7 +225,7 @@ mod tests {
         let db = Db::open(&dir.path().join("batch.db")).await.expect("database");
         let (toml, design) = design(extra);
         let stimuli: Vec<StudyStimulus> = (0..stimuli)
-            .map(|i| StudyStimulus { stimulus_id: format!("s{i:02}"), media: "image".into(), file: format!("media/s{i:02}.png"), emotion: String::new() })
+            .map(|i| StudyStimulus::still(crate::stimuli::StimulusId::parse(&crate::stimuli::stimulus_id(1, i)).expect("id")))
             .collect();
         let id = db.create_study(&design, &toml, "set", &stimuli, true).await.expect("study");
         (db, id, design)

@@ -34,7 +34,7 @@ use sha2::{Digest, Sha256};
 
 use super::dither::{Dither, DitherKey, DitherKeyError};
 use super::frames::{FrameKey, SharedFrames};
-use super::manifest::{self, ManifestRow};
+use super::manifest::{self, ManifestRow, Media};
 use super::spec::{Content, Entry, SetSpec};
 use crate::engine::identity::IdentityTable;
 use crate::engine::image::RgbImage;
@@ -169,7 +169,7 @@ fn planned_row(spec: &SetSpec, entry: &Entry, id: &str, dither: &str) -> Manifes
     let (w, h) = spec.size;
     let base = ManifestRow {
         stimulus_id: id.to_string(),
-        media: String::new(),
+        media: Media::Image,
         file: String::new(),
         identity: entry.identity.clone(),
         expression: entry.expression.clone(),
@@ -188,11 +188,11 @@ fn planned_row(spec: &SetSpec, entry: &Entry, id: &str, dither: &str) -> Manifes
         dither: dither.to_string(),
     };
     match &entry.content {
-        Content::Image(_) => ManifestRow { media: "image".into(), file: format!("media/{id}.png"), ..base },
+        Content::Image(_) => ManifestRow { media: Media::Image, file: format!("media/{id}.png"), ..base },
         Content::Video { timeline, timing } => {
             let (ew, eh) = even_size(w, h);
             ManifestRow {
-                media: "video".into(),
+                media: Media::Video,
                 file: format!("media/{id}.mp4"),
                 onset_s: Some(timing.onset_s),
                 apex_s: Some(timing.apex_s),

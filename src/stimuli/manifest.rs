@@ -6,6 +6,8 @@
 //! `sha256` is the hash of the media file as written (dithered, when the set is); `dither` is the
 //! fingerprint of the set's dither key (16 hex digits; empty for a set built with `--no-dither`).
 //! A stimulus's `file` is always `media/<name>`: [`is_media_path`] is the check readers apply.
+//! A stimulus's kind is a [`Media`] (`image` or `video`) and its id a [`StimulusId`] (16
+//! lower-case hex digits): both are parsed once where they enter (the manifest, the database).
 //!
 //! The per-frame ground truth (`ground_truth/<id>.csv`) has the columns
 //! `frame,time_s,AU01_r,AU02_r,…` after the OpenFace convention: one column per AU the video
@@ -40,13 +42,91 @@ pub const COLUMNS: [&str; 18] = [
     "dither",
 ];
 
+/// What kind of file a stimulus is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Media {
+    /// A still (`media/<id>.png`).
+    Image,
+    /// A clip (`media/<id>.mp4`).
+    Video,
+}
+
+impl Media {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Media::Image => "image",
+            Media::Video => "video",
+        }
+    }
+
+    pub fn parse(text: &str) -> Option<Media> {
+        [Media::Image, Media::Video].into_iter().find(|m| m.as_str() == text)
+    }
+
+    /// The `Content-Type` its files are served with.
+    pub fn content_type(self) -> &'static str {
+        match self {
+            Media::Image => "image/png",
+            Media::Video => "video/mp4",
+        }
+    }
+}
+
+impl std::fmt::Display for Media {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.pad(self.as_str())
+    }
+}
+
+/// The opaque id of a stimulus: 16 lower-case hex digits (derived from the set seed and the
+/// entry index, [`crate::stimuli::stimulus_id`]); also the stem of its file names.
+#[derive(Debug, Clone, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(try_from = "String", into = "String")]
+pub struct StimulusId(String);
+
+/// A text that is not a stimulus id (quoted, at most 40 characters of it).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("\"{0}\" is not a stimulus id (16 lower-case hex digits)")]
+pub struct NotAStimulusId(pub String);
+
+impl StimulusId {
+    pub fn parse(text: &str) -> Result<StimulusId, NotAStimulusId> {
+        let shaped = text.len() == 16 && text.bytes().all(|b| b.is_ascii_digit() || (b'a'..=b'f').contains(&b));
+        if shaped { Ok(StimulusId(text.to_string())) } else { Err(NotAStimulusId(text.chars().take(40).collect())) }
+    }
+
+    pub fn as_str(&self) -> &str {
+        &self.0
+    }
+}
+
+impl TryFrom<String> for StimulusId {
+    type Error = NotAStimulusId;
+
+    fn try_from(text: String) -> Result<StimulusId, NotAStimulusId> {
+        StimulusId::parse(&text)
+    }
+}
+
+impl From<StimulusId> for String {
+    fn from(id: StimulusId) -> String {
+        id.0
+    }
+}
+
+impl std::fmt::Display for StimulusId {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
 /// One stimulus in the manifest.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ManifestRow {
     /// Opaque and random (derived from the set seed and the entry index); also the file stem.
     pub stimulus_id: String,
-    /// `image` or `video`.
-    pub media: String,
+    pub media: Media,
     /// Path relative to the set directory (`media/<id>.png` or `media/<id>.mp4`).
     pub file: String,
     pub identity: String,
@@ -92,7 +172,7 @@ impl ManifestRow {
     fn csv_fields(&self) -> Vec<String> {
         vec![
             self.stimulus_id.clone(),
-            self.media.clone(),
+            self.media.as_str().to_string(),
             self.file.clone(),
             self.identity.clone(),
             self.expression.clone(),
@@ -175,7 +255,7 @@ mod tests {
     fn row() -> ManifestRow {
         ManifestRow {
             stimulus_id: "0a1b2c3d4e5f6789".into(),
-            media: "video".into(),
+            media: Media::Video,
             file: "media/0a1b2c3d4e5f6789.mp4".into(),
             identity: "wm1".into(),
             expression: "12@1+R14@0.5".into(),
@@ -226,8 +306,23 @@ mod tests {
     }
 
     #[test]
+    fn media_and_ids_have_one_spelling() {
+        for media in [Media::Image, Media::Video] {
+            assert_eq!(Media::parse(media.as_str()), Some(media));
+            assert_eq!(serde_json::to_string(&media).unwrap(), format!("\"{}\"", media.as_str()));
+        }
+        assert_eq!(Media::parse("audio"), None);
+        assert_eq!(StimulusId::parse(&crate::stimuli::stimulus_id(7, 3)).map(|id| id.to_string()), Ok(crate::stimuli::stimulus_id(7, 3)));
+        for bad in ["0A1B2C3D4E5F6789", "0a1b2c3d4e5f678", "0a1b2c3d4e5f6789a", "../dither.key0000", ""] {
+            assert!(StimulusId::parse(bad).is_err(), "{bad}");
+        }
+        let err = serde_json::from_str::<StimulusId>("\"s01\"").unwrap_err();
+        assert!(err.to_string().contains("\"s01\" is not a stimulus id"), "{err}");
+    }
+
+    #[test]
     fn image_rows_leave_timing_empty() {
-        let image = ManifestRow { media: "image".into(), onset_s: None, apex_s: None, offset_s: None, frames: None, fps: None, ..row() };
+        let image = ManifestRow { media: Media::Image, onset_s: None, apex_s: None, offset_s: None, frames: None, fps: None, ..row() };
         let csv = to_csv(&[image]);
         assert!(csv.lines().nth(1).unwrap().contains(",1,,,,,,486,480,"), "{csv}");
     }

@@ -20,6 +20,6 @@ pub mod spec;
 
 pub use build::{BuildError, BuildOptions, BuildSummary, Dithering, ENGINE_VERSION, build, render_video, stimulus_id};
 pub use dither::{DitherKey, DitherKeyError};
-pub use manifest::{COLUMNS, ManifestRow};
+pub use manifest::{COLUMNS, ManifestRow, Media, StimulusId};
 pub use shard::{MergeSummary, Shard, ShardError, build_shard, merge};
 pub use spec::{Content, Entry, SetSpec, SpecError};

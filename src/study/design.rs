@@ -73,11 +73,12 @@ pub enum MediaFilter {
 }
 
 impl MediaFilter {
-    pub fn admits(self, media: &str) -> bool {
+    pub fn admits(self, media: crate::stimuli::manifest::Media) -> bool {
+        use crate::stimuli::manifest::Media;
         match self {
             MediaFilter::All => true,
-            MediaFilter::Image => media == "image",
-            MediaFilter::Video => media == "video",
+            MediaFilter::Image => media == Media::Image,
+            MediaFilter::Video => media == Media::Video,
         }
     }
 }

@@ -17,12 +17,15 @@ use axum::extract::{Form, Path, Query, State};
 use axum::http::{HeaderMap, StatusCode, header};
 use axum::response::{IntoResponse, Redirect, Response};
 use axum::routing::{get, post};
+use axum_extra::extract::CookieJar;
+use axum_extra::extract::cookie::SameSite;
 use serde_json::json;
 
 use super::limit::{self, ClientAddress};
-use super::{AppState, WebError, cookie, merge};
+use super::{AppState, WebError, merge};
 use crate::db::admin::{AdminSession, Role};
 use crate::db::export::{Format, Scope, codebook};
+use crate::db::studies::StudyStatus;
 
 const COOKIE: &str = "facslab_admin";
 
@@ -41,14 +44,18 @@ pub fn routes() -> Router<AppState> {
         .route("/api/v1/studies/{slug}/{file}", get(export_by_token))
 }
 
-fn session_cookie(headers: &HeaderMap) -> Option<&str> {
-    cookie(headers, COOKIE)
+/// The session token in the request's cookie, if there is one.
+fn session_cookie(headers: &HeaderMap) -> Option<String> {
+    CookieJar::from_headers(headers).get(COOKIE).map(|c| c.value().to_string())
 }
+
+/// How long a login cookie is kept (the session itself ends after as long: `db::admin`).
+const SESSION_COOKIE_AGE: std::time::Duration = std::time::Duration::from_secs(43_200);
 
 /// The logged-in admin with at least `role`.
 async fn admin(app: &AppState, headers: &HeaderMap, role: Role) -> Result<AdminSession, WebError> {
     let token = session_cookie(headers).ok_or(WebError::Unauthorized)?;
-    let session = app.db.admin_session(token).await?.ok_or(WebError::Unauthorized)?;
+    let session = app.db.admin_session(&token).await?.ok_or(WebError::Unauthorized)?;
     if session.role < role {
         return Err(WebError::Forbidden(format!("this needs the {} role; you are {}", role.as_str(), session.role.as_str())));
     }
@@ -102,7 +109,7 @@ fn too_many(app: &AppState, wait: std::time::Duration) -> Response {
     page
 }
 
-async fn login(State(app): State<AppState>, address: ClientAddress, Form(form): Form<HashMap<String, String>>) -> Response {
+async fn login(State(app): State<AppState>, address: ClientAddress, jar: CookieJar, Form(form): Form<HashMap<String, String>>) -> Response {
     let (user, password) = (form.get("username").cloned().unwrap_or_default(), form.get("password").cloned().unwrap_or_default());
     if user.len() > 64 || password.len() > crate::db::password::MAX_LEN * 4 {
         return WebError::BadRequest("the username or password is too long".into()).into_response();
@@ -125,8 +132,7 @@ async fn login(State(app): State<AppState>, address: ClientAddress, Form(form): 
             if let Some(a) = address.as_deref() {
                 edge.login_addresses.forgive(a);
             }
-            let cookie = edge.cookie(COOKIE, &token, 43_200, "Strict");
-            ([(header::SET_COOKIE, cookie)], Redirect::to("/admin")).into_response()
+            (jar.add(edge.cookie(COOKIE, &token, SESSION_COOKIE_AGE, SameSite::Strict)), Redirect::to("/admin")).into_response()
         }
         Ok(None) => {
             let page = app.render("admin_login.html", &merge(base(None, "Log in"), json!({ "error": "Unknown username or wrong password." })));
@@ -138,14 +144,13 @@ async fn login(State(app): State<AppState>, address: ClientAddress, Form(form): 
     }
 }
 
-async fn logout(State(app): State<AppState>, headers: HeaderMap, Form(form): Form<HashMap<String, String>>) -> Response {
+async fn logout(State(app): State<AppState>, headers: HeaderMap, jar: CookieJar, Form(form): Form<HashMap<String, String>>) -> Response {
     or_login(async {
         admin_post(&app, &headers, &form, Role::Viewer).await?;
-        if let Some(token) = session_cookie(&headers) {
-            app.db.logout(token).await?;
+        if let Some(token) = jar.get(COOKIE) {
+            app.db.logout(token.value()).await?;
         }
-        let expired = app.edge.cookie(COOKIE, "", 0, "Strict");
-        Ok(([(header::SET_COOKIE, expired)], Redirect::to("/admin/login")).into_response())
+        Ok((jar.add(app.edge.expired_cookie(COOKIE, SameSite::Strict)), Redirect::to("/admin/login")).into_response())
     }
     .await)
 }
@@ -194,14 +199,21 @@ async fn progress_json(State(app): State<AppState>, headers: HeaderMap, Path(slu
 async fn set_status(State(app): State<AppState>, headers: HeaderMap, Path(slug): Path<String>, Form(form): Form<HashMap<String, String>>) -> Response {
     or_login(async {
         admin_post(&app, &headers, &form, Role::Researcher).await?;
-        let status = form.get("status").map(String::as_str).unwrap_or("");
-        if !["draft", "open", "closed"].contains(&status) {
-            return Err(WebError::BadRequest(format!("status \"{status}\" is not draft, open or closed")));
-        }
+        let status = form_status(&form)?;
         app.db.set_study_status(&slug, status).await?;
         Ok(Redirect::to(&format!("/admin/studies/{slug}")).into_response())
     }
     .await)
+}
+
+/// The form's `status` field, or 422 naming the field and the values it takes.
+fn form_status(form: &HashMap<String, String>) -> Result<StudyStatus, WebError> {
+    let given = form.get("status").map(String::as_str).unwrap_or("");
+    StudyStatus::parse(given).ok_or_else(|| {
+        let shown: String = given.chars().take(40).collect();
+        let allowed: Vec<_> = StudyStatus::ALL.iter().map(|s| s.as_str()).collect();
+        WebError::Unprocessable(format!("status: \"{shown}\" is not one of {}", allowed.join(", ")))
+    })
 }
 
 async fn exclude(State(app): State<AppState>, headers: HeaderMap, Path(slug): Path<String>, Form(form): Form<HashMap<String, String>>) -> Response {
@@ -280,7 +292,7 @@ async fn export(app: &AppState, slug: &str, file: &str, query: &HashMap<String, 
         Some("all") => Scope::All,
         Some(other) => return Err(WebError::BadRequest(format!("scope \"{other}\" is not completed or all"))),
     };
-    let mut stimuli: Vec<String> = study.stimuli.keys().cloned().collect();
+    let mut stimuli: Vec<_> = study.stimuli.keys().cloned().collect();
     stimuli.sort();
     let rx = app.db.export(study.row.id, &study.design, stimuli, format, scope);
     let stream = futures_util::stream::unfold(rx, |mut rx| async move { rx.recv().await.map(|chunk| (chunk.map_err(std::io::Error::other), rx)) });

@@ -95,13 +95,13 @@ impl WebError {
     /// Internal errors go to the server log with their chain of causes.
     fn log(&self) {
         if let WebError::Internal { context, source } = self {
-            let mut line = format!("error: {context}");
+            let mut causes = String::new();
             let mut cause: Option<&(dyn std::error::Error + 'static)> = source.as_deref().map(|s| s as _);
             while let Some(c) = cause {
-                line.push_str(&format!(": {c}"));
+                causes.push_str(&format!(": {c}"));
                 cause = c.source();
             }
-            eprintln!("{line}");
+            tracing::error!("{context}{causes}");
         }
     }
 }

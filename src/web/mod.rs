@@ -6,12 +6,15 @@
 //! emotion or file (media are served by trial position under the participant's secret token);
 //! request bodies are capped; every response carries no-referrer, nosniff and a strict CSP;
 //! served behind HTTPS (`--public-url https://…`) cookies are `Secure` and responses carry HSTS;
-//! logins and starts are rate limited per account and per client address ([`limit`]).
+//! logins and starts are rate limited per account and per client address ([`limit`]); cookies
+//! are built in one place ([`Edge::cookie`]) and read through axum-extra's `CookieJar`; every
+//! request gets an id and a log line without its path ([`log`]).
 
 pub mod admin;
 pub mod error;
 pub mod extract;
 pub mod limit;
+pub mod log;
 pub mod participant;
 
 use std::collections::HashMap;
@@ -25,10 +28,14 @@ use axum::extract::{DefaultBodyLimit, Path};
 use axum::http::{HeaderValue, header};
 use axum::response::{IntoResponse, Response};
 use axum::routing::get;
+use axum_extra::extract::cookie::{Cookie, SameSite};
+use tower_http::request_id::{MakeRequestUuid, PropagateRequestIdLayer, SetRequestIdLayer};
 use tower_http::set_header::SetResponseHeaderLayer;
+use tower_http::trace::TraceLayer;
 
 use crate::db::Db;
 use crate::db::studies::{StudyRow, StudyStimulus};
+use crate::stimuli::manifest::StimulusId;
 use crate::study::StudyDesign;
 pub use error::WebError;
 
@@ -40,7 +47,7 @@ pub const BODY_LIMIT: usize = 64 * 1024;
 pub struct LoadedStudy {
     pub row: StudyRow,
     pub design: StudyDesign,
-    pub stimuli: HashMap<String, StudyStimulus>,
+    pub stimuli: HashMap<StimulusId, StudyStimulus>,
     pub set_dir: PathBuf,
 }
 
@@ -93,10 +100,17 @@ impl Edge {
         }
     }
 
-    /// A `Set-Cookie` value: HttpOnly, on the whole site, `Secure` behind HTTPS.
-    pub fn cookie(&self, name: &str, value: &str, max_age_s: u64, same_site: &str) -> String {
-        let secure = if self.config.https { "; Secure" } else { "" };
-        format!("{name}={value}; Path=/; HttpOnly; SameSite={same_site}; Max-Age={max_age_s}{secure}")
+    /// A cookie of this site: HttpOnly, on the whole site, kept `max_age`, `Secure` behind HTTPS.
+    pub fn cookie(&self, name: &str, value: &str, max_age: Duration, same_site: SameSite) -> Cookie<'static> {
+        let max_age = time::Duration::seconds(i64::try_from(max_age.as_secs()).unwrap_or(i64::MAX));
+        Cookie::build((name.to_string(), value.to_string())).path("/").http_only(true).same_site(same_site).max_age(max_age).secure(self.config.https).build()
+    }
+
+    /// The cookie that makes a browser forget cookie `name` (same attributes, no value, expired).
+    pub fn expired_cookie(&self, name: &str, same_site: SameSite) -> Cookie<'static> {
+        let mut cookie = self.cookie(name, "", Duration::ZERO, same_site);
+        cookie.make_removal();
+        cookie
     }
 }
 
@@ -179,14 +193,6 @@ impl AppState {
     }
 }
 
-/// The value of cookie `name` in a request's headers.
-pub fn cookie<'a>(headers: &'a axum::http::HeaderMap, name: &str) -> Option<&'a str> {
-    headers.get_all(header::COOKIE).iter().filter_map(|v| v.to_str().ok()).flat_map(|v| v.split(';')).find_map(|pair| {
-        let (k, v) = pair.trim().split_once('=')?;
-        (k == name).then_some(v)
-    })
-}
-
 /// Adds the fields of JSON object `extra` to JSON object `base` (page contexts).
 pub fn merge(mut base: serde_json::Value, extra: serde_json::Value) -> serde_json::Value {
     if let (Some(b), serde_json::Value::Object(e)) = (base.as_object_mut(), extra) {
@@ -210,6 +216,9 @@ pub fn router(state: AppState) -> Router {
         .layer(SetResponseHeaderLayer::if_not_present(header::CONTENT_SECURITY_POLICY, HeaderValue::from_static(csp)))
         .layer(SetResponseHeaderLayer::if_not_present(header::CACHE_CONTROL, HeaderValue::from_static("no-store")))
         .layer(SetResponseHeaderLayer::overriding(header::STRICT_TRANSPORT_SECURITY, hsts))
+        .layer(PropagateRequestIdLayer::x_request_id())
+        .layer(TraceLayer::new_for_http().make_span_with(log::request_span).on_request(()).on_response(log::response_line).on_failure(()))
+        .layer(SetRequestIdLayer::x_request_id(MakeRequestUuid))
         .with_state(state)
 }
 
@@ -240,10 +249,10 @@ async fn reap_forever(db: Db) {
     loop {
         tick.tick().await;
         if let Err(e) = db.reap(crate::db::now_ms()).await {
-            eprintln!("reaper: {e}");
+            tracing::error!(error = %e, "abandoning expired reservations failed");
         }
         if let Err(e) = db.purge_expired_sessions(crate::db::now_ms()).await {
-            eprintln!("expired sessions: {e}");
+            tracing::error!(error = %e, "deleting expired admin sessions failed");
         }
     }
 }

@@ -9,18 +9,23 @@
 use std::collections::HashMap;
 
 use axum::extract::{Form, Path, Query, State};
-use axum::http::{HeaderMap, StatusCode, header};
+use axum::http::{HeaderValue, StatusCode, header};
 use axum::response::{IntoResponse, Redirect, Response};
 use axum::routing::{get, post};
 use axum::{Json, Router};
+use axum_extra::extract::CookieJar;
+use axum_extra::extract::cookie::SameSite;
 use serde_json::json;
+use tower_http::services::ServeFile;
 
 use super::extract::{ParticipationToken, TrialPosition};
 use super::limit::ClientAddress;
-use super::{AppState, LoadedStudy, WebError, cookie, merge};
+use super::{AppState, LoadedStudy, WebError, merge};
 use crate::db::participants::{Demographics, Participation, SaveOutcome, SaveTiming, Started, TrialRow};
+use crate::db::studies::StudyStatus;
 use crate::db::{secret_token, token_sha256};
 use crate::facs::{Catalog, Region};
+use crate::stimuli::manifest::Media;
 use crate::study::assign::TrialKind;
 use crate::study::design::emotion_choices;
 use crate::study::measure::Demographic;
@@ -58,13 +63,13 @@ async fn landing(State(app): State<AppState>, Path(slug): Path<String>, Query(qu
     let platform = study.design.recruitment.platform;
     let params = entry_params(platform, &query)?;
     let preview = platform == Platform::Mturk && query.get("assignmentId").is_some_and(|a| a == "ASSIGNMENT_ID_NOT_AVAILABLE");
-    let status = app.db.study_by_slug(&slug).await?.map(|s| s.status).unwrap_or_default();
+    let open = is_open(&app, &slug).await?;
     let minutes = (study.design.trials_per_participant.max(study.stimuli.len().min(60)) as f64 * 0.25).ceil().max(2.0);
     app.render(
         "landing.html",
         &merge(
             page(&study, "Welcome"),
-            json!({ "title": study.design.title, "slug": slug, "params": params, "preview": preview, "closed": status != "open", "full": false, "minutes": minutes }),
+            json!({ "title": study.design.title, "slug": slug, "params": params, "preview": preview, "closed": !open, "full": false, "minutes": minutes }),
         ),
     )
 }
@@ -92,8 +97,22 @@ fn entry_params(platform: Platform, given: &HashMap<String, String>) -> Result<V
     Ok(kept)
 }
 
+/// Whether study `slug` takes participants now (its status is read each time: the study's
+/// cached row does not follow an admin's change).
+async fn is_open(app: &AppState, slug: &str) -> Result<bool, WebError> {
+    Ok(app.db.study_by_slug(slug).await?.is_some_and(|s| s.status == StudyStatus::Open))
+}
+
 fn cookie_name(slug: &str) -> String {
     format!("facslab_{slug}")
+}
+
+/// How long a browser keeps the token of the participation it started.
+const PARTICIPATION_COOKIE_AGE: std::time::Duration = std::time::Duration::from_secs(7 * 86_400);
+
+/// The participation token this browser holds for study `slug`, if any.
+fn held_token<'a>(jar: &'a CookieJar, slug: &str) -> Option<&'a str> {
+    jar.get(&cookie_name(slug)).map(|c| c.value())
 }
 
 
@@ -106,19 +125,18 @@ fn too_many_starts(wait: std::time::Duration) -> Response {
     (StatusCode::TOO_MANY_REQUESTS, [(header::RETRY_AFTER, super::limit::retry_after(wait))], message).into_response()
 }
 
-async fn start(State(app): State<AppState>, Path(slug): Path<String>, address: ClientAddress, headers: HeaderMap, Form(form): Form<Vec<(String, String)>>) -> Result<Response, WebError> {
+async fn start(State(app): State<AppState>, Path(slug): Path<String>, address: ClientAddress, jar: CookieJar, Form(form): Form<Vec<(String, String)>>) -> Result<Response, WebError> {
     let study = app.study(&slug).await?;
     if let Some(Err(wait)) = address.key().map(|a| app.edge.starts.hit(&a)) {
         return Ok(too_many_starts(wait));
     }
-    let status = app.db.study_by_slug(&slug).await?.map(|s| s.status).unwrap_or_default();
-    if status != "open" {
+    if !is_open(&app, &slug).await? {
         return Err(WebError::Conflict("this study is not open at the moment".into()));
     }
     let platform = study.design.recruitment.platform;
     let params = entry_params(platform, &form.into_iter().collect())?;
     if platform == Platform::Local
-        && let Some(token) = cookie(&headers, &cookie_name(&slug))
+        && let Some(token) = held_token(&jar, &slug)
         && app.db.participation(token).await?.is_some_and(|p| p.study_id == study.row.id)
     {
         return Ok(Redirect::to(&format!("/p/{token}")).into_response());
@@ -131,7 +149,7 @@ async fn start(State(app): State<AppState>, Path(slug): Path<String>, address: C
     let token = match app.db.start_participation(study.row.id, &study.design, &worker, &params_json).await? {
         Started::New(token) => token,
         // The participation's token goes only to the browser that holds it already.
-        Started::Existing(existing) => match cookie(&headers, &cookie_name(&slug)) {
+        Started::Existing(existing) => match held_token(&jar, &slug) {
             Some(held) if same_secret(&token_sha256(held), &existing) => held.to_string(),
             _ => return started_elsewhere(&app, &study),
         },
@@ -142,8 +160,8 @@ async fn start(State(app): State<AppState>, Path(slug): Path<String>, address: C
             );
         }
     };
-    let set_cookie = app.edge.cookie(&cookie_name(&slug), &token, 604_800, "Lax");
-    Ok(([(header::SET_COOKIE, set_cookie)], Redirect::to(&format!("/p/{token}"))).into_response())
+    let cookie = app.edge.cookie(&cookie_name(&slug), &token, PARTICIPATION_COOKIE_AGE, SameSite::Lax);
+    Ok((jar.add(cookie), Redirect::to(&format!("/p/{token}"))).into_response())
 }
 
 /// Whether two secrets are equal, in time that does not depend on where they differ.
@@ -393,11 +411,12 @@ async fn save_json(State(app): State<AppState>, token: ParticipationToken, Trial
     }
 }
 
-/// The stimulus of a trial, by position only (the URL says nothing about what it shows).
-async fn media(State(app): State<AppState>, token: ParticipationToken, TrialPosition(position): TrialPosition, headers: HeaderMap) -> Result<Response, WebError> {
-    let (p, study) = participation(&app, &token).await?;
-    // Media only for a participant at the trials (consent and the design's steps done), up to
-    // the current trial and the few after it.
+/// The file of the trial at `position` if the participant may fetch it now: the participant is
+/// at the trials (consent and the design's steps done) and the trial is the current one, an
+/// answered one or one of the [`PRELOAD_AHEAD`] after the current one; the file lies directly
+/// under the set's `media/`. Anything else is 404.
+async fn reachable_media(app: &AppState, token: &ParticipationToken, position: i64) -> Result<(std::path::PathBuf, Media), WebError> {
+    let (p, study) = participation(app, token).await?;
     let at_trials = p.state == SessionState::Active && (p.has_demographics || !study.design.demographics);
     if !at_trials {
         return Err(WebError::NotFound);
@@ -406,30 +425,25 @@ async fn media(State(app): State<AppState>, token: ParticipationToken, TrialPosi
     let current = trials.iter().find(|t| !t.answered).map_or(i64::MAX, |t| t.position);
     let trial = trials.iter().find(|t| t.position == position && position <= current.saturating_add(PRELOAD_AHEAD)).ok_or(WebError::NotFound)?;
     let stimulus = study.stimuli.get(&trial.stimulus_id).filter(|s| crate::stimuli::manifest::is_media_path(&s.file)).ok_or(WebError::NotFound)?;
-    let bytes = tokio::fs::read(study.set_dir.join(&stimulus.file)).await.map_err(|e| WebError::internal(format!("reading {}", stimulus.file), e))?;
-    let content_type = if stimulus.media == "video" { "video/mp4" } else { "image/png" };
-    Ok(byte_range(bytes, content_type, headers.get(header::RANGE).and_then(|v| v.to_str().ok())))
+    Ok((study.set_dir.join(&stimulus.file), stimulus.media))
 }
 
-/// A whole body, or the one byte range asked for (video elements seek with ranges).
-fn byte_range(bytes: Vec<u8>, content_type: &'static str, range: Option<&str>) -> Response {
-    let len = bytes.len();
-    let cache = (header::CACHE_CONTROL, "private, max-age=3600");
-    let parsed = range.and_then(|r| r.strip_prefix("bytes=")).and_then(|r| r.split_once('-')).and_then(|(a, b)| {
-        let start: usize = if a.is_empty() { len.saturating_sub(b.parse().ok()?) } else { a.parse().ok()? };
-        let end: usize = if a.is_empty() || b.is_empty() { len.checked_sub(1)? } else { b.parse::<usize>().ok()?.min(len.checked_sub(1)?) };
-        (start <= end).then_some((start, end))
-    });
-    match (range, parsed) {
-        (Some(_), Some((start, end))) => (
-            StatusCode::PARTIAL_CONTENT,
-            [(header::CONTENT_TYPE, content_type.to_string()), (header::CONTENT_RANGE, format!("bytes {start}-{end}/{len}")), (header::ACCEPT_RANGES, "bytes".into()), (cache.0, cache.1.into())],
-            bytes[start..=end].to_vec(),
-        )
-            .into_response(),
-        (Some(_), None) => (StatusCode::RANGE_NOT_SATISFIABLE, [(header::CONTENT_RANGE, format!("bytes */{len}"))]).into_response(),
-        (None, _) => ([(header::CONTENT_TYPE, content_type.to_string()), (header::ACCEPT_RANGES, "bytes".into()), (cache.0, cache.1.into())], bytes).into_response(),
+/// The stimulus of a trial, by position only (the URL says nothing about what it shows).
+/// tower-http's `ServeFile` answers byte ranges (video elements seek with them) and
+/// `If-Modified-Since`/`If-None-Match`-style revalidation; the type is the stimulus's [`Media`].
+async fn media(State(app): State<AppState>, token: ParticipationToken, TrialPosition(position): TrialPosition, request: axum::extract::Request) -> Result<Response, WebError> {
+    let (file, kind) = reachable_media(&app, &token, position).await?;
+    let served = ServeFile::new(&file).try_call(request).await.map_err(|e| WebError::internal("reading a stimulus file", e))?;
+    let mut response = served.map(axum::body::Body::new);
+    if response.status() == StatusCode::NOT_FOUND {
+        return Err(WebError::internal("a stimulus file is missing", format!("{} is not there", file.display())));
     }
+    let headers = response.headers_mut();
+    if headers.contains_key(header::CONTENT_TYPE) {
+        headers.insert(header::CONTENT_TYPE, HeaderValue::from_static(kind.content_type()));
+    }
+    headers.insert(header::CACHE_CONTROL, HeaderValue::from_static("private, max-age=3600"));
+    Ok(response)
 }
 
 /// The end of a participation: debrief, completion code and the platform's redirect (only
@@ -501,18 +515,6 @@ async fn withdraw(State(app): State<AppState>, token: ParticipationToken) -> Res
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn ranges() {
-        let body: Vec<u8> = (0..10).collect();
-        let r = byte_range(body.clone(), "video/mp4", Some("bytes=2-4"));
-        assert_eq!(r.status(), StatusCode::PARTIAL_CONTENT);
-        assert_eq!(r.headers()[header::CONTENT_RANGE], "bytes 2-4/10");
-        assert_eq!(byte_range(body.clone(), "video/mp4", Some("bytes=-3")).headers()[header::CONTENT_RANGE], "bytes 7-9/10");
-        assert_eq!(byte_range(body.clone(), "video/mp4", Some("bytes=8-")).headers()[header::CONTENT_RANGE], "bytes 8-9/10");
-        assert_eq!(byte_range(body.clone(), "video/mp4", Some("bytes=12-14")).status(), StatusCode::RANGE_NOT_SATISFIABLE);
-        assert_eq!(byte_range(body, "video/mp4", None).status(), StatusCode::OK);
-    }
 
     #[test]
     fn demographics_are_checked() {

@@ -48,7 +48,7 @@ async fn balanced_assignment_ends_within_one_rating_of_the_target() {
     let db = Db::open(&dir.path().join("balance.db")).await.unwrap();
     let design = StudyDesign::from_toml(DESIGN).unwrap();
     let stimuli: Vec<StudyStimulus> = (0..10)
-        .map(|i| StudyStimulus { stimulus_id: format!("s{i:02}"), media: "image".into(), file: format!("media/s{i:02}.png"), emotion: String::new() })
+        .map(|i| StudyStimulus::still(facslab::stimuli::StimulusId::parse(&facslab::stimuli::stimulus_id(1, i)).unwrap()))
         .collect();
     let study = db.create_study(&design, DESIGN, "set", &stimuli, true).await.unwrap();
 

@@ -137,6 +137,48 @@ async fn edge_saves_and_media_wait_for_the_steps_before_them() {
     assert_eq!(media(position).await.unwrap().status(), 200, "an answered trial's face stays reachable");
 }
 
+/// A video element seeks with byte ranges, and a browser revalidates what it holds: the media
+/// route answers both, with the stimulus's type and the edge's headers.
+#[tokio::test(flavor = "multi_thread")]
+async fn edge_media_answer_byte_ranges_and_revalidation() {
+    let (_lab, server, http) = emotion_lab("emo", "");
+    let token = start(&http, &server, "emo", &[]).await;
+    consent_and_demographics(&http, &server, &token).await;
+    let (url, video, last_modified) = loop {
+        let position = current_position(&http, &server, &token).await.expect("the video comes before the end");
+        let url = server.url(&format!("/p/{token}/media/{position}"));
+        let whole = http.get(&url).send().await.unwrap();
+        assert_eq!(whole.status(), 200);
+        let header = |name: &str| whole.headers().get(name).map(|v| v.to_str().unwrap().to_string()).unwrap_or_default();
+        let (content_type, last_modified) = (header("content-type"), header("last-modified"));
+        assert_eq!((header("cache-control").as_str(), header("x-content-type-options").as_str(), header("accept-ranges").as_str()), ("private, max-age=3600", "nosniff", "bytes"));
+        assert!(header("content-security-policy").contains("default-src 'self'"));
+        let bytes = whole.bytes().await.unwrap();
+        if content_type == "video/mp4" {
+            break (url, bytes, last_modified);
+        }
+        assert_eq!(content_type, "image/png");
+        let key = format!("range-test-key-{position:04}");
+        assert_eq!(save(&http, &server, &token, position, &key, &[("emotion", "fear"), ("believability", "2")]).await.0, 200);
+    };
+    let len = video.len();
+    assert!(len > 100 && video.get(4..8) == Some(&b"ftyp"[..]));
+    for (range, start, end) in [("bytes=0-99", 0, 99), ("bytes=100-", 100, len - 1), ("bytes=-10", len - 10, len - 1)] {
+        let r = http.get(&url).header("range", range).send().await.unwrap();
+        assert_eq!(r.status(), 206, "{range}");
+        assert_eq!(r.headers()["content-range"].to_str().unwrap(), format!("bytes {start}-{end}/{len}"), "{range}");
+        assert_eq!(r.headers()["content-type"], "video/mp4");
+        assert_eq!(r.bytes().await.unwrap(), video[start..=end], "{range}");
+    }
+    let past = http.get(&url).header("range", format!("bytes={}-{}", len + 5, len + 9)).send().await.unwrap();
+    assert_eq!(past.status(), 416);
+    assert_eq!(past.headers()["content-range"].to_str().unwrap(), format!("bytes */{len}"));
+    assert!(!last_modified.is_empty(), "the file's time is sent");
+    let again = http.get(&url).header("if-modified-since", &last_modified).send().await.unwrap();
+    assert_eq!(again.status(), 304);
+    assert!(again.bytes().await.unwrap().is_empty());
+}
+
 /// Every byte of the database (the file and its write-ahead log).
 fn database_bytes(lab: &Lab) -> Vec<u8> {
     let mut bytes = std::fs::read(lab.path().join("lab.db")).unwrap();
@@ -184,6 +226,26 @@ async fn edge_tokens_are_not_in_the_database_in_clear() {
     forged.replace_range(forged.len() - 1.., last);
     let r = http.post(server.url("/admin/studies/emo/status")).header("cookie", &cookie).form(&[("csrf", forged.as_str()), ("status", "closed")]).send().await.unwrap();
     assert_eq!(r.status(), 403);
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn edge_a_posted_study_status_that_is_not_one_of_them_gets_422_naming_the_field() {
+    let (_lab, server, http) = emotion_lab("emo", "");
+    let cookie = admin_cookie(&http, &server).await;
+    let page = http.get(server.url("/admin/studies/emo")).header("cookie", &cookie).send().await.unwrap().text().await.unwrap();
+    let csrf = csrf_in(&page);
+    for bad in ["paused", "Open", ""] {
+        let r = http.post(server.url("/admin/studies/emo/status")).header("cookie", &cookie).form(&[("csrf", csrf.as_str()), ("status", bad)]).send().await.unwrap();
+        assert_eq!(r.status(), 422, "{bad:?}");
+        let body = r.text().await.unwrap();
+        assert!(body.contains(&format!("status: &quot;{bad}&quot; is not one of draft, open, closed")), "{body}");
+    }
+    let landing = http.get(server.url("/s/emo")).send().await.unwrap().text().await.unwrap();
+    assert!(!landing.contains("not open at the moment"), "the study stays open");
+    let r = http.post(server.url("/admin/studies/emo/status")).header("cookie", &cookie).form(&[("csrf", csrf.as_str()), ("status", "closed")]).send().await.unwrap();
+    assert_eq!(r.status(), 303);
+    let landing = http.get(server.url("/s/emo")).send().await.unwrap().text().await.unwrap();
+    assert!(landing.contains("not open at the moment"), "{landing}");
 }
 
 #[tokio::test(flavor = "multi_thread")]
@@ -399,7 +461,7 @@ async fn edge_served_media_differ_from_a_public_re_render_and_the_dither_key_is_
         assert!(set_files.contains(bytes), "trial {n} served a file that is not one of the set's media");
         assert!(!public.contains(bytes), "trial {n} served the bytes of a public re-render");
     }
-    let videos = rows.iter().filter(|r| r.media == "video").count();
+    let videos = rows.iter().filter(|r| r.media == facslab::stimuli::Media::Video).count();
     assert!(videos > 0 && served.iter().any(|b| b.get(4..8) == Some(&b"ftyp"[..])), "a video was among the served media");
 
     // The key file is in the set directory, and no URL hands it out.
@@ -454,4 +516,57 @@ async fn edge_served_media_differ_from_a_public_re_render_and_the_dither_key_is_
         let err = crate::cli::stderr(&out);
         assert!(err.contains("is not in the set's media/ directory"), "{crafted_file}: {err}");
     }
+}
+
+/// Waits until the server's log has a line containing `needle` (log lines are written after
+/// the response); returns that line.
+async fn log_line(server: &Server, needle: &str) -> String {
+    for _ in 0..100 {
+        if let Some(line) = server.log().lines().find(|l| l.contains(needle)) {
+            return line.to_string();
+        }
+        tokio::time::sleep(std::time::Duration::from_millis(50)).await;
+    }
+    panic!("no log line with {needle:?} in:\n{}", server.log());
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn edge_the_log_has_route_status_and_latency_of_each_request_and_never_a_secret() {
+    let lab = Lab::new();
+    lab.study("emo", &emotion_design("emo", ""));
+    let server = Server::start_logged(lab.path().join("lab.db"), None);
+    let http = client();
+    let token = start(&http, &server, "emo", &[]).await;
+    consent_and_demographics(&http, &server, &token).await;
+    let r = http.get(server.url(&format!("/p/{token}/trial"))).send().await.unwrap();
+    assert_eq!(r.status(), 200);
+    let id = r.headers()["x-request-id"].to_str().unwrap().to_string();
+    let line = log_line(&server, &id).await;
+    assert!(line.contains("INFO") && line.contains("method=GET") && line.contains("route=/p/{token}/trial") && line.contains("status=200"), "{line}");
+    let latency: f64 = line.split("latency_ms=").nth(1).and_then(|rest| rest.split_whitespace().next()).and_then(|ms| ms.parse().ok()).expect(&line);
+    assert!((0.0..10_000.0).contains(&latency), "{line}");
+    // A path that matches no route, and a client's own request id, which is kept.
+    let r = http.get(server.url(&format!("/p/{token}/nothing/here?token={token}"))).header("x-request-id", "client-chosen-id-1").send().await.unwrap();
+    assert_eq!((r.status().as_u16(), r.headers()["x-request-id"].to_str().unwrap()), (404, "client-chosen-id-1"));
+    let missing = log_line(&server, "client-chosen-id-1").await;
+    assert!(missing.contains("status=404"), "{missing}");
+    // Admin secrets stay out too.
+    let cookie = admin_cookie(&http, &server).await;
+    let session = cookie.split_once('=').unwrap().1.to_string();
+    let r = http.get(server.url("/admin/studies/emo")).header("cookie", &cookie).send().await.unwrap();
+    let admin_id = r.headers()["x-request-id"].to_str().unwrap().to_string();
+    let csrf = csrf_in(&r.text().await.unwrap());
+    assert!(log_line(&server, &admin_id).await.contains("route=/admin/studies/{slug}"));
+    let log = server.log();
+    for (name, secret) in [("participation token", &token), ("admin session", &session), ("CSRF token", &csrf)] {
+        assert!(!log.contains(secret.as_str()), "the {name} is in the log:\n{log}");
+    }
+    assert!(log.lines().filter(|l| l.contains("status=")).count() >= 6, "{log}");
+
+    // RUST_LOG chooses what is logged: warnings only leave the request lines out.
+    drop(server);
+    let quiet = Server::start_logged(lab.path().join("lab.db"), Some("facslab=warn"));
+    assert_eq!(http.get(quiet.url("/health")).send().await.unwrap().status(), 200);
+    tokio::time::sleep(std::time::Duration::from_millis(300)).await;
+    assert!(!quiet.log().contains("status="), "{}", quiet.log());
 }

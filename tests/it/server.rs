@@ -4,6 +4,7 @@
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
+use std::sync::{Arc, Mutex};
 
 use crate::cli::facslab_ok;
 
@@ -104,6 +105,8 @@ pub struct Server {
     child: Child,
     pub base: String,
     db: PathBuf,
+    /// What the server wrote to stderr, when started with [`Server::start_logged`].
+    log: Arc<Mutex<String>>,
 }
 
 impl Server {
@@ -113,18 +116,43 @@ impl Server {
 
     /// `facslab serve` with more options.
     pub fn start_with(db: PathBuf, options: &[&str]) -> Server {
-        let mut child = Command::new(env!("CARGO_BIN_EXE_facslab"))
-            .args(["serve", "--port", "0", "--db"])
-            .arg(&db)
-            .args(options)
-            .stdout(Stdio::piped())
-            .stderr(Stdio::inherit())
-            .spawn()
-            .expect("facslab serve starts");
+        Server::spawn(db, options, None)
+    }
+
+    /// `facslab serve` with the log filter `rust_log`, its stderr collected ([`Server::log`]).
+    pub fn start_logged(db: PathBuf, rust_log: Option<&str>) -> Server {
+        Server::spawn(db, &[], Some(rust_log))
+    }
+
+    fn spawn(db: PathBuf, options: &[&str], logged: Option<Option<&str>>) -> Server {
+        let mut command = Command::new(env!("CARGO_BIN_EXE_facslab"));
+        command.args(["serve", "--port", "0", "--db"]).arg(&db).args(options).stdout(Stdio::piped());
+        match logged {
+            // Warnings and errors only: a line per request would drown the test output.
+            None => command.stderr(Stdio::inherit()).env("RUST_LOG", "facslab=warn"),
+            Some(filter) => command.stderr(Stdio::piped()).env_remove("RUST_LOG").envs(filter.map(|f| ("RUST_LOG", f))),
+        };
+        let mut child = command.spawn().expect("facslab serve starts");
+        let log = Arc::new(Mutex::new(String::new()));
+        if let Some(stderr) = child.stderr.take() {
+            let log = log.clone();
+            std::thread::spawn(move || {
+                for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+                    let mut log = log.lock().unwrap();
+                    log.push_str(&line);
+                    log.push('\n');
+                }
+            });
+        }
         let mut line = String::new();
         BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
         let base = line.split_whitespace().find(|w| w.starts_with("http://")).expect("the server prints its address").trim_end_matches("/admin").to_string();
-        Server { child, base, db }
+        Server { child, base, db, log }
+    }
+
+    /// The server's stderr so far (empty unless started with [`Server::start_logged`]).
+    pub fn log(&self) -> String {
+        self.log.lock().unwrap().clone()
     }
 
     /// Kills the server without any chance to clean up (like a crash or power cut).

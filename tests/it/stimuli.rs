@@ -121,7 +121,7 @@ fn stimuli_same_spec_and_seed_give_identical_bytes_on_any_jobs_and_a_rebuild_ski
     for row in &rows {
         facslab::facs::Catalog::built_in().parse(&row.expression).unwrap_or_else(|e| panic!("{}: {e}", row.expression));
     }
-    let video = rows.iter().find(|r| r.media == "video").unwrap();
+    let video = rows.iter().find(|r| r.media == facslab::stimuli::Media::Video).unwrap();
     assert_eq!((video.frames, video.fps, video.width, video.height), (Some(9), Some(30), 64, 64));
 
     // A second build into the same directory renders nothing and changes nothing.
@@ -142,7 +142,7 @@ fn stimuli_names_and_ids_reveal_nothing() {
     for row in &rows {
         assert_eq!(row.stimulus_id.len(), 16);
         assert!(row.stimulus_id.chars().all(|c| c.is_ascii_hexdigit()), "{}", row.stimulus_id);
-        let ext = if row.media == "video" { "mp4" } else { "png" };
+        let ext = if row.media == facslab::stimuli::Media::Video { "mp4" } else { "png" };
         assert_eq!(row.file, format!("media/{}.{ext}", row.stimulus_id));
     }
     for name in files(&dir.path().join("set")).keys() {
@@ -163,10 +163,10 @@ fn stimuli_apex_frame_equals_the_still_and_ground_truth_matches_each_frame() {
     let set = dir.path().join("set");
     let catalog = Catalog::built_in();
     // Clips only: a CPT sequence has no single apex.
-    for video in rows.iter().filter(|r| r.media == "video" && r.emotion != "novelty") {
+    for video in rows.iter().filter(|r| r.media == facslab::stimuli::Media::Video && r.emotion != "novelty") {
         let still = rows
             .iter()
-            .find(|r| r.media == "image" && r.identity == video.identity && r.intensity == video.intensity)
+            .find(|r| r.media == facslab::stimuli::Media::Image && r.identity == video.identity && r.intensity == video.intensity)
             .unwrap_or_else(|| panic!("no still for {}", video.expression));
         assert_eq!(still.expression, video.expression);
         let apex_frame = ((video.onset_s.unwrap() + video.apex_s.unwrap() / 2.0) * video.fps.unwrap() as f64).round() as usize;
@@ -175,7 +175,7 @@ fn stimuli_apex_frame_equals_the_still_and_ground_truth_matches_each_frame() {
         assert_eq!(rgb(&frame), rgb(&still_png), "apex frame {apex_frame} of {} differs from its still", video.expression);
     }
 
-    for video in rows.iter().filter(|r| r.media == "video") {
+    for video in rows.iter().filter(|r| r.media == facslab::stimuli::Media::Video) {
         let id = &video.stimulus_id;
         let timeline = Timeline::from_json(&std::fs::read_to_string(set.join(format!("timelines/{id}.json"))).unwrap()).unwrap();
         let csv = std::fs::read_to_string(set.join(format!("ground_truth/{id}.csv"))).unwrap();
@@ -499,7 +499,7 @@ fn sha256(bytes: &[u8]) -> String {
 /// What anyone with facslab renders for a manifest row: `facslab render` of its expression and
 /// person at its size (a clip: of the set's own timeline, the closest public re-render there is).
 pub fn public_render(dir: &Path, set: &Path, row: &ManifestRow, name: &str) -> Vec<u8> {
-    if row.media == "video" {
+    if row.media == facslab::stimuli::Media::Video {
         let timeline = set.join(format!("timelines/{}.json", row.stimulus_id));
         let out = format!("{name}.mp4");
         facslab_ok(dir, &["render", "--timeline", timeline.to_str().unwrap(), "-o", &out]);
@@ -536,8 +536,8 @@ fn stimuli_dither_hides_media_from_a_public_re_render_and_the_same_key_reproduce
         assert!(kb != public, "{} {}: the dithered file equals the public render", k.expression, k.media);
     }
     // Stills and posters: at most one level per channel from the engine's pixels, and not zero everywhere.
-    let video = keyed.iter().find(|r| r.media == "video").unwrap();
-    let mut pictures: Vec<String> = keyed.iter().filter(|r| r.media == "image").map(|r| r.file.clone()).collect();
+    let video = keyed.iter().find(|r| r.media == facslab::stimuli::Media::Video).unwrap();
+    let mut pictures: Vec<String> = keyed.iter().filter(|r| r.media == facslab::stimuli::Media::Image).map(|r| r.file.clone()).collect();
     pictures.push(format!("posters/{}.png", video.stimulus_id));
     for file in &pictures {
         let (k, p) = (rgb(&std::fs::read(d.join("keyed").join(file)).unwrap()), rgb(&std::fs::read(d.join("plain").join(file)).unwrap()));
