@@ -94,7 +94,7 @@ pub fn analyze(manifest: &Manifest, responses: &Responses) -> Option<Demographic
         by_cond.entry((std::cmp::Reverse(s.media), std::cmp::Reverse(s.intensity_percent()))).or_default().insert(x.participant);
     }
     let mut rows: Vec<DemographicRow> =
-        by_cond.iter().map(|((m, i), who)| row(format!("{} {}%", m.0.label(), i.0), who, responses)).collect();
+        by_cond.iter().map(|((m, i), who)| row(format!("{} {}%", m.0.as_str(), i.0), who, responses)).collect();
     let coders: BTreeSet<usize> = responses.aus.iter().map(|a| a.participant).collect();
     if !coders.is_empty() {
         rows.push(row("coders".into(), &coders, responses));

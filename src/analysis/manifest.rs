@@ -9,22 +9,8 @@ use std::path::Path;
 use super::input::{FxHashMap, InputError, TableInput};
 use crate::facs::{Catalog, EmotionTable, Expression};
 
-/// Still image or video.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Media {
-    Image,
-    Video,
-}
-
-impl Media {
-    pub fn label(self) -> &'static str {
-        match self {
-            Media::Image => "image",
-            Media::Video => "video",
-        }
-    }
-}
+/// Still image or video: the manifest's own type.
+pub use crate::stimuli::manifest::Media;
 
 /// One stimulus and its ground truth.
 #[derive(Debug, Clone)]
@@ -84,11 +70,8 @@ impl Manifest {
             if id.is_empty() {
                 return Err(input.cell(place, "stimulus_id", "empty stimulus id"));
             }
-            let media = match r[c_media].trim() {
-                "image" => Media::Image,
-                "video" => Media::Video,
-                other => return Err(input.cell(place, "media", format!("\"{other}\" is not image or video"))),
-            };
+            let text = r[c_media].trim();
+            let media = Media::parse(text).ok_or_else(|| input.cell(place, "media", format!("\"{}\" is not image or video", crate::study::excerpt(text, 32))))?;
             let expression = catalog.parse(&r[c_expr]).map_err(|e| input.cell(place, "expression", e.to_string()))?;
             let emotion = match r[c_emotion].trim() {
                 "" => None,

@@ -188,7 +188,7 @@ fn display_labels(responses: &Responses) -> Vec<String> {
 type CondKey = (Media, u32);
 
 fn cond_name(k: CondKey) -> String {
-    format!("{} {}%", k.0.label(), k.1)
+    format!("{} {}%", k.0.as_str(), k.1)
 }
 
 fn ttests(a: &[f64], b: &[f64]) -> (Outcome<TTest>, Outcome<TTest>) {

@@ -292,7 +292,7 @@ fn anova(r: &RatingReport) -> Table {
     let mut rows = Vec::new();
     for a in &r.anova {
         for (ty, table) in [("II", a.type_ii.as_result()), ("III", a.type_iii.as_result())] {
-            let lead = [Cell::text(a.media.label()), Cell::text(&a.outcome), Cell::count(a.n), Cell::text(ty)];
+            let lead = [Cell::text(a.media.as_str()), Cell::text(&a.outcome), Cell::count(a.n), Cell::text(ty)];
             match table {
                 Ok(table) => rows.extend(table.rows.iter().map(|row| {
                     let (f, p, eta) = (Cell::opt_or_empty(row.f, 3), row.p.map_or(Cell::Empty, Cell::P), Cell::opt_or_empty(row.partial_eta2, 4));

@@ -485,10 +485,11 @@ async fn done(State(app): State<AppState>, token: ParticipationToken) -> Result<
     app.render("message.html", &merge(page(&study, heading), context))
 }
 
+/// Percent-encodes `text` for a URL's query or path: everything but RFC 3986's unreserved
+/// characters.
 fn urlencode(text: &str) -> String {
-    text.bytes()
-        .map(|b| if b.is_ascii_alphanumeric() || b"-_.~".contains(&b) { (b as char).to_string() } else { format!("%{b:02X}") })
-        .collect()
+    const UNRESERVED: &percent_encoding::AsciiSet = &percent_encoding::NON_ALPHANUMERIC.remove(b'-').remove(b'_').remove(b'.').remove(b'~');
+    percent_encoding::utf8_percent_encode(text, UNRESERVED).to_string()
 }
 
 async fn withdraw_page(State(app): State<AppState>, token: ParticipationToken) -> Result<Response, WebError> {
