@@ -13,7 +13,8 @@ use std::collections::HashMap;
 
 use axum::Router;
 use axum::body::Body;
-use axum::extract::{Form, Path, Query, State};
+use axum::extract::{Form, FromRequest, FromRequestParts, Path, Query, Request, State};
+use axum::http::request::Parts;
 use axum::http::{HeaderMap, StatusCode, header};
 use axum::response::{IntoResponse, Redirect, Response};
 use axum::routing::{get, post};
@@ -77,6 +78,56 @@ async fn admin_post(app: &AppState, headers: &HeaderMap, form: &HashMap<String, 
         return Err(WebError::Forbidden("cross-site request refused".into()));
     }
     Ok(session)
+}
+
+/// A role an admin route needs, as a type (`Admin<Researcher>`).
+pub trait NeedsRole: Send + Sync + 'static {
+    const ROLE: Role;
+}
+
+/// Viewers see progress and export.
+pub enum Viewer {}
+/// Researchers also create, open, close and exclude.
+pub enum Researcher {}
+
+impl NeedsRole for Viewer {
+    const ROLE: Role = Role::Viewer;
+}
+
+impl NeedsRole for Researcher {
+    const ROLE: Role = Role::Researcher;
+}
+
+/// The logged-in admin with at least the role `R` (an extractor: anonymous requests are
+/// refused with 401, too low a role with 403; pages take `Result<Admin<R>, WebError>` and send
+/// anonymous visitors to the login page).
+pub struct Admin<R>(pub AdminSession, std::marker::PhantomData<R>);
+
+impl<R: NeedsRole> FromRequestParts<AppState> for Admin<R> {
+    type Rejection = WebError;
+
+    async fn from_request_parts(parts: &mut Parts, app: &AppState) -> Result<Self, WebError> {
+        admin(app, &parts.headers, R::ROLE).await.map(|session| Admin(session, std::marker::PhantomData))
+    }
+}
+
+/// A state-changing admin form: the logged-in admin with at least the role `R`, and the form's
+/// fields once its CSRF token and origin are checked (an extractor, like [`Admin`]).
+pub struct AdminForm<R> {
+    pub session: AdminSession,
+    pub fields: HashMap<String, String>,
+    role: std::marker::PhantomData<R>,
+}
+
+impl<R: NeedsRole> FromRequest<AppState> for AdminForm<R> {
+    type Rejection = WebError;
+
+    async fn from_request(request: Request, app: &AppState) -> Result<Self, WebError> {
+        let headers = request.headers().clone();
+        let Form(fields) = Form::<HashMap<String, String>>::from_request(request, app).await.map_err(|e| WebError::BadRequest(e.body_text()))?;
+        let session = admin_post(app, &headers, &fields, R::ROLE).await?;
+        Ok(AdminForm { session, fields, role: std::marker::PhantomData })
+    }
 }
 
 /// Pages send anonymous visitors to the login page; other errors render as usual.
@@ -144,9 +195,9 @@ async fn login(State(app): State<AppState>, address: ClientAddress, jar: CookieJ
     }
 }
 
-async fn logout(State(app): State<AppState>, headers: HeaderMap, jar: CookieJar, Form(form): Form<HashMap<String, String>>) -> Response {
+async fn logout(State(app): State<AppState>, jar: CookieJar, form: Result<AdminForm<Viewer>, WebError>) -> Response {
     or_login(async {
-        admin_post(&app, &headers, &form, Role::Viewer).await?;
+        form?;
         if let Some(token) = jar.get(COOKIE) {
             app.db.logout(token.value()).await?;
         }
@@ -155,9 +206,9 @@ async fn logout(State(app): State<AppState>, headers: HeaderMap, jar: CookieJar,
     .await)
 }
 
-async fn dashboard(State(app): State<AppState>, headers: HeaderMap) -> Response {
+async fn dashboard(State(app): State<AppState>, admin: Result<Admin<Viewer>, WebError>) -> Response {
     or_login(async {
-        let session = admin(&app, &headers, Role::Viewer).await?;
+        let Admin(session, _) = admin?;
         let mut studies = Vec::new();
         for s in app.db.studies().await? {
             let progress = app.db.progress(s.id).await?;
@@ -168,9 +219,9 @@ async fn dashboard(State(app): State<AppState>, headers: HeaderMap) -> Response 
     .await)
 }
 
-async fn study_page(State(app): State<AppState>, headers: HeaderMap, Path(slug): Path<String>) -> Response {
+async fn study_page(State(app): State<AppState>, Path(slug): Path<String>, admin: Result<Admin<Viewer>, WebError>) -> Response {
     or_login(async {
-        let session = admin(&app, &headers, Role::Viewer).await?;
+        let Admin(session, _) = admin?;
         let row = app.db.study_by_slug(&slug).await?.ok_or(WebError::NotFound)?;
         let progress = app.db.progress(row.id).await?;
         let participants = app.db.participants(row.id).await?;
@@ -190,16 +241,14 @@ async fn study_page(State(app): State<AppState>, headers: HeaderMap, Path(slug):
     .await)
 }
 
-async fn progress_json(State(app): State<AppState>, headers: HeaderMap, Path(slug): Path<String>) -> Result<Response, WebError> {
-    admin(&app, &headers, Role::Viewer).await?;
+async fn progress_json(State(app): State<AppState>, _: Admin<Viewer>, Path(slug): Path<String>) -> Result<Response, WebError> {
     let row = app.db.study_by_slug(&slug).await?.ok_or(WebError::NotFound)?;
     Ok(axum::Json(app.db.progress(row.id).await?).into_response())
 }
 
-async fn set_status(State(app): State<AppState>, headers: HeaderMap, Path(slug): Path<String>, Form(form): Form<HashMap<String, String>>) -> Response {
+async fn set_status(State(app): State<AppState>, Path(slug): Path<String>, form: Result<AdminForm<Researcher>, WebError>) -> Response {
     or_login(async {
-        admin_post(&app, &headers, &form, Role::Researcher).await?;
-        let status = form_status(&form)?;
+        let status = form_status(&form?.fields)?;
         app.db.set_study_status(&slug, status).await?;
         Ok(Redirect::to(&format!("/admin/studies/{slug}")).into_response())
     }
@@ -216,9 +265,9 @@ fn form_status(form: &HashMap<String, String>) -> Result<StudyStatus, WebError> 
     })
 }
 
-async fn exclude(State(app): State<AppState>, headers: HeaderMap, Path(slug): Path<String>, Form(form): Form<HashMap<String, String>>) -> Response {
+async fn exclude(State(app): State<AppState>, Path(slug): Path<String>, form: Result<AdminForm<Researcher>, WebError>) -> Response {
     or_login(async {
-        admin_post(&app, &headers, &form, Role::Researcher).await?;
+        let form = form?.fields;
         let row = app.db.study_by_slug(&slug).await?.ok_or(WebError::NotFound)?;
         let public_id = form.get("participant").cloned().unwrap_or_default();
         let excluded = form.get("excluded").map(String::as_str) == Some("1");
@@ -229,18 +278,18 @@ async fn exclude(State(app): State<AppState>, headers: HeaderMap, Path(slug): Pa
     .await)
 }
 
-async fn new_study_page(State(app): State<AppState>, headers: HeaderMap) -> Response {
+async fn new_study_page(State(app): State<AppState>, admin: Result<Admin<Researcher>, WebError>) -> Response {
     or_login(async {
-        let session = admin(&app, &headers, Role::Researcher).await?;
+        let Admin(session, _) = admin?;
         let templates: Vec<_> = crate::study::templates::ALL.iter().map(|(name, text)| json!({ "name": name, "text": text })).collect();
         app.render("admin_new.html", &merge(base(Some(&session), "New study"), json!({ "templates": templates, "error": null, "spec": "", "set_dir": "" })))
     }
     .await)
 }
 
-async fn create_study(State(app): State<AppState>, headers: HeaderMap, Form(form): Form<HashMap<String, String>>) -> Response {
+async fn create_study(State(app): State<AppState>, form: Result<AdminForm<Researcher>, WebError>) -> Response {
     or_login(async {
-        let session = admin_post(&app, &headers, &form, Role::Researcher).await?;
+        let AdminForm { session, fields: form, .. } = form?;
         let spec = form.get("spec").cloned().unwrap_or_default();
         let set_dir = form.get("set_dir").cloned().unwrap_or_default();
         match app.db.create_study_from(&spec, std::path::Path::new(&set_dir), false).await {
@@ -257,9 +306,9 @@ async fn create_study(State(app): State<AppState>, headers: HeaderMap, Form(form
     .await)
 }
 
-async fn export_by_session(State(app): State<AppState>, headers: HeaderMap, Path((slug, file)): Path<(String, String)>, Query(q): Query<HashMap<String, String>>) -> Response {
+async fn export_by_session(State(app): State<AppState>, Path((slug, file)): Path<(String, String)>, Query(q): Query<HashMap<String, String>>, admin: Result<Admin<Viewer>, WebError>) -> Response {
     or_login(async {
-        admin(&app, &headers, Role::Viewer).await?;
+        admin?;
         export(&app, &slug, &file, &q).await
     }
     .await)
