@@ -61,18 +61,25 @@ const PAGE: &str = include_str!("../../assets/studio/index.html");
 const SCRIPT: &str = include_str!("../../assets/studio/studio.js");
 const STYLE: &str = include_str!("../../assets/studio/studio.css");
 
-/// The studio's routes (the page, its assets and the API).
+/// The studio's routes (the page, its assets and the API) at the root, for `facslab studio`.
 pub fn router(state: StudioState) -> Router {
+    router_at("", state)
+}
+
+/// The studio's routes under `base` (`""` or a path such as `/admin/studio`; the page is at
+/// `{base}/` and uses relative URLs for its script, style and API).
+pub fn router_at<S: Clone + Send + Sync + 'static>(base: &str, state: StudioState) -> Router<S> {
     let csp = "default-src 'self'; img-src 'self' blob: data:; media-src 'self' blob:; style-src 'self'; script-src 'self'; connect-src 'self' blob:; frame-ancestors 'none'; base-uri 'none'";
+    let at = |path: &str| format!("{base}{path}");
     Router::new()
-        .route("/", get(|| async { Html(PAGE) }))
-        .route("/studio.js", get(|| async { ([(header::CONTENT_TYPE, "text/javascript; charset=utf-8")], SCRIPT) }))
-        .route("/studio.css", get(|| async { ([(header::CONTENT_TYPE, "text/css; charset=utf-8")], STYLE) }))
-        .route("/api/v1/catalog", get(catalog))
-        .route("/api/v1/render", post(render))
-        .route("/api/v1/timeline", post(clip_timeline))
-        .route("/api/v1/stream", get(stream::upgrade))
-        .route("/health", get(|| async { "ok" }))
+        .route(&at("/"), get(|| async { Html(PAGE) }))
+        .route(&at("/studio.js"), get(|| async { ([(header::CONTENT_TYPE, "text/javascript; charset=utf-8")], SCRIPT) }))
+        .route(&at("/studio.css"), get(|| async { ([(header::CONTENT_TYPE, "text/css; charset=utf-8")], STYLE) }))
+        .route(&at("/api/v1/catalog"), get(catalog))
+        .route(&at("/api/v1/render"), post(render))
+        .route(&at("/api/v1/timeline"), post(clip_timeline))
+        .route(&at("/api/v1/stream"), get(stream::upgrade))
+        .route(&at("/health"), get(|| async { "ok" }))
         .layer(DefaultBodyLimit::max(BODY_LIMIT))
         .layer(SetResponseHeaderLayer::overriding(header::CONTENT_SECURITY_POLICY, HeaderValue::from_static(csp)))
         .layer(SetResponseHeaderLayer::overriding(header::X_CONTENT_TYPE_OPTIONS, HeaderValue::from_static("nosniff")))

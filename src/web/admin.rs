@@ -45,6 +45,22 @@ pub fn routes() -> Router<AppState> {
         .route("/api/v1/studies/{slug}/{file}", get(export_by_token))
 }
 
+/// The expression studio (`crate::studio`) for logged-in admins at `/admin/studio/`: anonymous
+/// page visits go to the login page, anonymous API calls get 401.
+pub fn studio(app: AppState) -> Router<AppState> {
+    crate::studio::router_at("/admin/studio", crate::studio::StudioState::default())
+        .route_layer(axum::middleware::from_fn_with_state(app, studio_gate))
+        .route("/admin/studio", get(|| async { Redirect::permanent("/admin/studio/") }))
+}
+
+async fn studio_gate(admin: Result<Admin<Viewer>, WebError>, request: Request, next: axum::middleware::Next) -> Response {
+    match admin {
+        Ok(_) => next.run(request).await,
+        Err(WebError::Unauthorized) if request.method() == axum::http::Method::GET && !request.uri().path().contains("/api/") => Redirect::to("/admin/login").into_response(),
+        Err(e) => e.into_response(),
+    }
+}
+
 /// The session token in the request's cookie, if there is one.
 fn session_cookie(headers: &HeaderMap) -> Option<String> {
     CookieJar::from_headers(headers).get(COOKIE).map(|c| c.value().to_string())

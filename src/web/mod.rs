@@ -208,6 +208,7 @@ pub fn router(state: AppState) -> Router {
     Router::new()
         .merge(participant::routes())
         .merge(admin::routes())
+        .merge(admin::studio(state.clone()))
         .route("/static/{file}", get(asset))
         .route("/health", get(|| async { "ok" }))
         .layer(DefaultBodyLimit::max(BODY_LIMIT))

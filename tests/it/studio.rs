@@ -270,3 +270,31 @@ async fn studio_client_examples_run() {
         assert!(std::fs::read(out.join("still.png")).unwrap() == std::fs::read(dir.path().join("cli.png")).unwrap(), "{program}: still differs");
     }
 }
+
+#[tokio::test(flavor = "multi_thread")]
+async fn studio_in_the_study_server_is_behind_the_admin_login() {
+    let (_lab, server, http) = crate::server::emotion_lab("emo", "");
+    // Anonymous: the page sends to the login, the API refuses.
+    let page = http.get(server.url("/admin/studio/")).send().await.unwrap();
+    assert_eq!((page.status().as_u16(), crate::server::location(&page)), (303, "/admin/login".to_string()));
+    let body = json!({ "expression": "1+2+L12C", "identity": "wf1", "size": "96x96" });
+    let anonymous = http.post(server.url("/admin/studio/api/v1/render")).json(&body).send().await.unwrap();
+    assert_eq!(anonymous.status(), 401);
+    // Logged in: the admin pages link to it; the page, its script and the render API, with the
+    // bytes `facslab render` writes.
+    let cookie = crate::server::admin_cookie(&http, &server).await;
+    let dashboard = http.get(server.url("/admin")).header("cookie", &cookie).send().await.unwrap().text().await.unwrap();
+    assert!(dashboard.contains("href=\"/admin/studio/\""), "{dashboard}");
+    let page = http.get(server.url("/admin/studio/")).header("cookie", &cookie).send().await.unwrap();
+    assert_eq!(page.status(), 200);
+    let csp = page.headers()["content-security-policy"].to_str().unwrap().to_string();
+    assert!(csp.contains("blob:"), "the studio's own policy (previews are blob: URLs): {csp}");
+    assert!(page.text().await.unwrap().contains("studio.js"));
+    let script = http.get(server.url("/admin/studio/studio.js")).header("cookie", &cookie).send().await.unwrap();
+    assert_eq!(script.status(), 200);
+    let png = http.post(server.url("/admin/studio/api/v1/render")).header("cookie", &cookie).json(&body).send().await.unwrap();
+    assert_eq!(png.status(), 200);
+    let dir = tempfile::tempdir().unwrap();
+    facslab_ok(dir.path(), &["render", "1+2+L12C", "--identity", "wf1", "--size", "96x96", "-o", "cli.png"]);
+    assert!(png.bytes().await.unwrap() == std::fs::read(dir.path().join("cli.png")).unwrap(), "the mounted studio's PNG differs from facslab render's");
+}
