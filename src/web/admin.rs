@@ -80,10 +80,9 @@ async fn admin(app: &AppState, headers: &HeaderMap, role: Role) -> Result<AdminS
 }
 
 /// Like [`admin`], for a state-changing form: also checks the CSRF token and the origin.
-async fn admin_post(app: &AppState, headers: &HeaderMap, form: &HashMap<String, String>, role: Role) -> Result<AdminSession, WebError> {
+async fn admin_post(app: &AppState, headers: &HeaderMap, csrf: &str, role: Role) -> Result<AdminSession, WebError> {
     let session = admin(app, headers, role).await?;
-    let sent = form.get("csrf").map(String::as_bytes).unwrap_or_default();
-    if !bool::from(subtle::ConstantTimeEq::ct_eq(sent, session.csrf_token.as_bytes())) {
+    if !bool::from(subtle::ConstantTimeEq::ct_eq(csrf.as_bytes(), session.csrf_token.as_bytes())) {
         return Err(WebError::Forbidden("the form's security token is missing or stale; reload the page and try again".into()));
     }
     let host = headers.get(header::HOST).and_then(|h| h.to_str().ok()).unwrap_or("");
@@ -128,22 +127,69 @@ impl<R: NeedsRole> FromRequestParts<AppState> for Admin<R> {
 }
 
 /// A state-changing admin form: the logged-in admin with at least the role `R`, and the form's
-/// fields once its CSRF token and origin are checked (an extractor, like [`Admin`]).
-pub struct AdminForm<R> {
+/// fields as `F` once its CSRF token and origin are checked (an extractor, like [`Admin`]).
+/// Who may post is settled before the fields are read: a stranger gets 401/403, never 422.
+pub struct AdminForm<R, F = HashMap<String, String>> {
     pub session: AdminSession,
-    pub fields: HashMap<String, String>,
+    pub fields: F,
     role: std::marker::PhantomData<R>,
 }
 
-impl<R: NeedsRole> FromRequest<AppState> for AdminForm<R> {
+/// The CSRF token every admin form carries.
+#[derive(serde::Deserialize)]
+struct CsrfField {
+    #[serde(default)]
+    csrf: String,
+}
+
+impl<R: NeedsRole, F: serde::de::DeserializeOwned + Send + 'static> FromRequest<AppState> for AdminForm<R, F> {
     type Rejection = WebError;
 
     async fn from_request(request: Request, app: &AppState) -> Result<Self, WebError> {
         let headers = request.headers().clone();
-        let Form(fields) = Form::<HashMap<String, String>>::from_request(request, app).await.map_err(|e| WebError::BadRequest(e.body_text()))?;
-        let session = admin_post(app, &headers, &fields, R::ROLE).await?;
+        let body = axum::body::Bytes::from_request(request, app).await.map_err(|e| WebError::BadRequest(e.body_text()))?;
+        let CsrfField { csrf } = serde_urlencoded::from_bytes(&body).map_err(|e| WebError::BadRequest(format!("not a form: {e}")))?;
+        let session = admin_post(app, &headers, &csrf, R::ROLE).await?;
+        let fields = serde_urlencoded::from_bytes(&body).map_err(|e| WebError::Unprocessable(format!("form: {}", crate::study::excerpt(&e.to_string(), 120))))?;
         Ok(AdminForm { session, fields, role: std::marker::PhantomData })
     }
+}
+
+/// `POST /admin/login`.
+#[derive(serde::Deserialize)]
+struct LoginForm {
+    #[serde(default)]
+    username: String,
+    #[serde(default)]
+    password: String,
+}
+
+/// `POST /admin/studies/{slug}/status` (parsed with [`form_status`], which names the field).
+#[derive(serde::Deserialize)]
+struct StatusForm {
+    #[serde(default)]
+    status: String,
+}
+
+/// `POST /admin/studies/{slug}/exclude`.
+#[derive(serde::Deserialize)]
+struct ExcludeForm {
+    #[serde(default)]
+    participant: String,
+    /// `1` excludes, anything else includes again.
+    #[serde(default)]
+    excluded: String,
+    #[serde(default)]
+    reason: String,
+}
+
+/// `POST /admin/studies`.
+#[derive(serde::Deserialize)]
+struct NewStudyForm {
+    #[serde(default)]
+    spec: String,
+    #[serde(default)]
+    set_dir: String,
 }
 
 /// Pages send anonymous visitors to the login page; other errors render as usual.
@@ -176,8 +222,8 @@ fn too_many(app: &AppState, wait: std::time::Duration) -> Response {
     page
 }
 
-async fn login(State(app): State<AppState>, address: ClientAddress, jar: CookieJar, Form(form): Form<HashMap<String, String>>) -> Response {
-    let (user, password) = (form.get("username").cloned().unwrap_or_default(), form.get("password").cloned().unwrap_or_default());
+async fn login(State(app): State<AppState>, address: ClientAddress, jar: CookieJar, Form(form): Form<LoginForm>) -> Response {
+    let LoginForm { username: user, password } = form;
     if user.len() > 64 || password.len() > crate::db::password::MAX_LEN * 4 {
         return WebError::BadRequest("the username or password is too long".into()).into_response();
     }
@@ -262,9 +308,9 @@ async fn progress_json(State(app): State<AppState>, _: Admin<Viewer>, Path(slug)
     Ok(axum::Json(app.db.progress(row.id).await?).into_response())
 }
 
-async fn set_status(State(app): State<AppState>, Path(slug): Path<String>, form: Result<AdminForm<Researcher>, WebError>) -> Response {
+async fn set_status(State(app): State<AppState>, Path(slug): Path<String>, form: Result<AdminForm<Researcher, StatusForm>, WebError>) -> Response {
     or_login(async {
-        let status = form_status(&form?.fields)?;
+        let status = form_status(&form?.fields.status)?;
         app.db.set_study_status(&slug, status).await?;
         Ok(Redirect::to(&format!("/admin/studies/{slug}")).into_response())
     }
@@ -272,8 +318,7 @@ async fn set_status(State(app): State<AppState>, Path(slug): Path<String>, form:
 }
 
 /// The form's `status` field, or 422 naming the field and the values it takes.
-fn form_status(form: &HashMap<String, String>) -> Result<StudyStatus, WebError> {
-    let given = form.get("status").map(String::as_str).unwrap_or("");
+fn form_status(given: &str) -> Result<StudyStatus, WebError> {
     StudyStatus::parse(given).ok_or_else(|| {
         let shown: String = given.chars().take(40).collect();
         let allowed: Vec<_> = StudyStatus::ALL.iter().map(|s| s.as_str()).collect();
@@ -281,14 +326,12 @@ fn form_status(form: &HashMap<String, String>) -> Result<StudyStatus, WebError> 
     })
 }
 
-async fn exclude(State(app): State<AppState>, Path(slug): Path<String>, form: Result<AdminForm<Researcher>, WebError>) -> Response {
+async fn exclude(State(app): State<AppState>, Path(slug): Path<String>, form: Result<AdminForm<Researcher, ExcludeForm>, WebError>) -> Response {
     or_login(async {
         let form = form?.fields;
         let row = app.db.study_by_slug(&slug).await?.ok_or(WebError::NotFound)?;
-        let public_id = form.get("participant").cloned().unwrap_or_default();
-        let excluded = form.get("excluded").map(String::as_str) == Some("1");
-        let reason = form.get("reason").map(|r| r.trim()).filter(|r| !r.is_empty()).unwrap_or("excluded by an admin");
-        app.db.set_excluded(row.id, &public_id, excluded, reason).await?;
+        let reason = Some(form.reason.trim()).filter(|r| !r.is_empty()).unwrap_or("excluded by an admin");
+        app.db.set_excluded(row.id, &form.participant, form.excluded == "1", reason).await?;
         Ok(Redirect::to(&format!("/admin/studies/{slug}")).into_response())
     }
     .await)
@@ -303,11 +346,9 @@ async fn new_study_page(State(app): State<AppState>, admin: Result<Admin<Researc
     .await)
 }
 
-async fn create_study(State(app): State<AppState>, form: Result<AdminForm<Researcher>, WebError>) -> Response {
+async fn create_study(State(app): State<AppState>, form: Result<AdminForm<Researcher, NewStudyForm>, WebError>) -> Response {
     or_login(async {
-        let AdminForm { session, fields: form, .. } = form?;
-        let spec = form.get("spec").cloned().unwrap_or_default();
-        let set_dir = form.get("set_dir").cloned().unwrap_or_default();
+        let AdminForm { session, fields: NewStudyForm { spec, set_dir }, .. } = form?;
         match app.db.create_study_from(&spec, std::path::Path::new(&set_dir), false).await {
             Ok(design) => Ok(Redirect::to(&format!("/admin/studies/{}", design.slug)).into_response()),
             Err(e) => {

@@ -237,9 +237,16 @@ async fn consent_page(State(app): State<AppState>, token: ParticipationToken) ->
     app.render("consent.html", &merge(page(&study, "Consent"), json!({ "token": token, "consent": study.design.consent })))
 }
 
-async fn consent(State(app): State<AppState>, token: ParticipationToken, Form(form): Form<HashMap<String, String>>) -> Result<Response, WebError> {
+/// `POST /p/{token}/consent`: the consent box.
+#[derive(serde::Deserialize)]
+struct ConsentForm {
+    #[serde(default)]
+    agree: String,
+}
+
+async fn consent(State(app): State<AppState>, token: ParticipationToken, Form(form): Form<ConsentForm>) -> Result<Response, WebError> {
     let study = participation_study(&app, &token).await?;
-    if form.get("agree").map(String::as_str) != Some("1") {
+    if form.agree != "1" {
         return Err(WebError::BadRequest("please tick the consent box to take part, or close this page".into()));
     }
     app.db.give_consent(token.as_str(), &study.design.consent_sha256()).await?;
