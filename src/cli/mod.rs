@@ -1,9 +1,10 @@
 //! The command line: parses arguments with clap and calls the library. The only place where
 //! errors become messages for people (with `anyhow` context) and exit codes. This module holds the
-//! engine and stimulus commands; [`analysis`] holds `analyze`, `simulate` and `convert`; [`web`]
-//! the study platform's `serve`, `demo`, `study`, `admin`, `export` and `report`.
+//! engine and stimulus commands; [`analysis`] holds `analyze`, `simulate` and `convert`; [`studio`]
+//! the editor's server; [`web`] the study platform's `serve`, `demo`, `study`, `admin`, `export` and `report`.
 
 pub mod analysis;
+pub mod studio;
 pub mod web;
 
 use std::path::{Path, PathBuf};
@@ -155,7 +156,7 @@ enum Command {
 
     /// Compose and preview expressions in the browser; serves the live render API.
     #[command(after_help = "Examples:\n  facslab studio                      # then open http://127.0.0.1:8090/\n  facslab studio --port 9000\n\nAPI: POST /api/v1/render {\"expression\": \"1+2+5B\", \"identity\": \"wf1\", \"size\": \"485x480\"} -> PNG\n(the bytes `facslab render` writes); {\"timeline\": {...}} -> MP4; WebSocket /api/v1/stream.\nProtocol and client examples: docs/studio.md.")]
-    Studio(crate::studio::StudioArgs),
+    Studio(studio::StudioArgs),
 
     /// Serve the study web app (participants and admin) from a study database.
     #[command(after_help = "Examples:\n  facslab serve --db lab.db\n  facslab serve --db lab.db --host 0.0.0.0 --port 8080\n\nCreate studies with `facslab study create` and the first admin with `facslab admin create`.")]
@@ -367,7 +368,7 @@ fn dispatch(command: Command) -> anyhow::Result<()> {
     match command {
         Command::Demo(args) => web::demo_command(args),
         Command::Serve(args) => web::serve_command(args),
-        Command::Studio(args) => crate::studio::studio_command(args),
+        Command::Studio(args) => studio::studio_command(args),
         Command::Study(command) => web::study_command(command),
         Command::Admin(command) => web::admin_command(command),
         Command::Export(args) => web::export_command(args),

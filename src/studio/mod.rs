@@ -86,34 +86,10 @@ pub fn router_at<S: Clone + Send + Sync + 'static>(base: &str, state: StudioStat
         .with_state(state)
 }
 
-/// `facslab studio`'s options.
-#[derive(Debug, clap::Args)]
-pub struct StudioArgs {
-    /// Address to listen on (127.0.0.1 keeps the studio to this computer).
-    #[arg(long, default_value = "127.0.0.1")]
-    pub host: std::net::IpAddr,
-    /// Port to listen on (0 = any free port).
-    #[arg(long, default_value_t = 8090)]
-    pub port: u16,
-    /// Also offer the people of this identity file (same format as stimuli/engine/identities.toml).
-    #[arg(long)]
-    pub identities: Option<std::path::PathBuf>,
-}
-
-/// Runs `facslab studio` until Ctrl-C.
-pub fn studio_command(args: StudioArgs) -> anyhow::Result<()> {
-    crate::cli::install_identities(args.identities.as_deref())?;
-    let runtime = tokio::runtime::Builder::new_multi_thread().enable_all().build()?;
-    runtime.block_on(serve(SocketAddr::new(args.host, args.port)))?;
-    Ok(())
-}
-
-/// Serves the studio on `addr` until Ctrl-C; prints the address it listens on.
-pub async fn serve(addr: SocketAddr) -> std::io::Result<()> {
+/// Serves the studio on `addr` until Ctrl-C; `on_ready` gets the address it listens on.
+pub async fn serve(addr: SocketAddr, on_ready: impl FnOnce(SocketAddr)) -> std::io::Result<()> {
     let listener = tokio::net::TcpListener::bind(addr).await?;
-    println!("facslab studio: http://{}/", listener.local_addr()?);
-    use std::io::Write as _;
-    let _ = std::io::stdout().flush();
+    on_ready(listener.local_addr()?);
     axum::serve(listener, router(StudioState::default()))
         .with_graceful_shutdown(async {
             let _ = tokio::signal::ctrl_c().await;
