@@ -12,9 +12,33 @@ use std::collections::HashMap;
 use std::sync::{Arc, Mutex, OnceLock};
 
 use glam::Vec3;
-use include_dir::{Dir, include_dir};
+use include_dir::{Dir, DirEntry, include_dir};
 
 static FACE_DIR: Dir<'static> = include_dir!("$CARGO_MANIFEST_DIR/stimuli/face");
+
+/// Every embedded file's contents by its path under `stimuli/face` (`targets/…/x.target`),
+/// indexed once: `include_dir` finds a file by comparing paths entry by entry, which made
+/// loading the hundreds of targets a large part of start-up.
+fn embedded_files() -> &'static HashMap<&'static str, &'static [u8]> {
+    static FILES: OnceLock<HashMap<&'static str, &'static [u8]>> = OnceLock::new();
+    FILES.get_or_init(|| {
+        let mut files = HashMap::new();
+        let mut dirs = vec![&FACE_DIR];
+        while let Some(dir) = dirs.pop() {
+            for entry in dir.entries() {
+                match entry {
+                    DirEntry::Dir(sub) => dirs.push(sub),
+                    DirEntry::File(file) => {
+                        if let Some(path) = file.path().to_str() {
+                            files.insert(path, file.contents());
+                        }
+                    }
+                }
+            }
+        }
+        files
+    })
+}
 
 /// Problems reading the face model (only possible when the vendored files are damaged or a
 /// basis table names a target or region that does not exist).
@@ -147,7 +171,7 @@ impl FaceModel {
 
     /// Whether a target named `group/name` exists.
     pub fn has_target(&self, name: &str) -> bool {
-        FACE_DIR.get_file(format!("targets/{name}.target")).is_some()
+        embedded_files().contains_key(format!("targets/{name}.target").as_str())
     }
 
     /// The vertex indices of the group `name` in `groups.txt` (e.g. `neck_cut_loop`, in order).
@@ -184,10 +208,7 @@ impl FaceModel {
 }
 
 fn read(file: &str) -> Result<&'static str, AssetError> {
-    FACE_DIR
-        .get_file(file)
-        .and_then(|f| f.contents_utf8())
-        .ok_or_else(|| AssetError::Missing(file.to_string()))
+    embedded_files().get(file).and_then(|bytes| std::str::from_utf8(bytes).ok()).ok_or_else(|| AssetError::Missing(file.to_string()))
 }
 
 /// Reads `index value…` rows; `convert` turns the values after the index into a row value.
