@@ -450,7 +450,7 @@ mod tests {
         let e = error("c1,g,s1,1,aus,1+77,\n");
         assert!(e.contains("row 1 (line 2), column \"value\"") && e.contains("AU 77"), "{e}");
         let e = error("p1,g,s2,1,believability,6,\n");
-        assert!(e.contains("column \"value\": believability \"6\" is outside the scale 1-5"), "{e}");
+        assert!(e.contains("column \"value\": believability \"6\" is outside the scale 0-5"), "{e}");
         let e = error("p1,,s2,1,believability,3,\n");
         assert!(e.contains("column \"group\": empty group"), "{e}");
         let e = error("p1,a,s2,1,emotion,joy,\n");

@@ -4,7 +4,8 @@
 //! - `exp1`: one video per HapFACS AU (49), coders mark AUs.
 //! - `exp2`: one video per AU combination of HapFACS Table 4 (54), coders mark AUs.
 //! - `exp3`: EmFACS emotions × {100 %, 50 %} × {video, image} × identities; each rater sees one
-//!   media × intensity condition, chooses an emotion and rates believability (1–5).
+//!   media × intensity condition, chooses an emotion and rates believability (1–5, facslab's
+//!   default scale).
 //!
 //! Answer model: a shown AU (or emotion) is given correctly with probability `accuracy` (for
 //! emotions at 50 % intensity, `accuracy − 0.1`); otherwise a "similar" one (HapFACS Table 2

@@ -122,13 +122,17 @@ fn f1_bars(name: &str, aus: &[u16], f1: &[f64]) -> Result<Vec<u8>, ReportError> 
 fn believability(name: &str, labels: &[String], series: &[(String, Vec<Option<(f64, f64)>>)]) -> Result<Vec<u8>, ReportError> {
     let palette = [RGBColor(49, 130, 189), RGBColor(158, 202, 225), RGBColor(230, 85, 13), RGBColor(253, 174, 107), RGBColor(49, 163, 84)];
     let w = (200 + 70 * labels.len()).max(600) as u32;
+    // Studies ask 1-5 (the default) or 0-5 (HapFACS's reading): the axis starts at 0 only when a
+    // mean minus its SD goes below 1.
+    let lowest = series.iter().flat_map(|(_, points)| points.iter().flatten()).map(|(mean, sd)| mean - sd).fold(f64::INFINITY, f64::min);
+    let y_min = if lowest < 1.0 { -0.5 } else { 0.5 };
     draw_png(name, w, 420, |root| {
         let mut chart = ChartBuilder::on(root)
             .caption("Believability: mean ± SD per emotion and condition", font(18.0))
             .margin(12)
             .x_label_area_size(40)
             .y_label_area_size(48)
-            .build_cartesian_2d(-0.5f64..labels.len() as f64 - 0.5, 0.5f64..5.5f64)
+            .build_cartesian_2d(-0.5f64..labels.len() as f64 - 0.5, y_min..5.5f64)
             .map_err(|e| e.to_string())?;
         chart
             .configure_mesh()
@@ -139,7 +143,7 @@ fn believability(name: &str, labels: &[String], series: &[(String, Vec<Option<(f
                 let i = x.round();
                 if (x - i).abs() < 1e-6 && i >= 0.0 && (i as usize) < labels.len() { short(&labels[i as usize]) } else { String::new() }
             })
-            .y_desc("rating (1-5)")
+            .y_desc("rating")
             .label_style(font(11.0))
             .axis_desc_style(font(13.0))
             .draw()
@@ -203,7 +207,7 @@ pub(super) fn all(report: &Report) -> Result<Vec<(String, Vec<u8>, String)>, Rep
             .collect();
         if !series.is_empty() {
             let name = "plot_believability.png".to_string();
-            out.push((name.clone(), believability(&name, &labels, &series)?, "Believability (1-5): mean with ±1 SD error bars.".into()));
+            out.push((name.clone(), believability(&name, &labels, &series)?, "Believability: mean with ±1 SD error bars.".into()));
         }
     }
     Ok(out)

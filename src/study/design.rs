@@ -179,12 +179,27 @@ impl Default for AttentionPolicy {
     }
 }
 
-#[derive(Debug, Clone, PartialEq, Deserialize, Default)]
+#[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct EmotionOptions {
-    /// Ask "How believable is this expression?" (1–5) after the emotion.
+    /// Ask "How believable is this expression?" after the emotion.
     #[serde(default)]
     pub believability: bool,
+    /// The believability item's range `[min, max]` (default `[1, 5]`). HapFACS's text reads
+    /// "0: not believable at all, 5: very believable", i.e. `[0, 5]`; the declared scale
+    /// (`measure::Scale::Believability`) admits both readings.
+    #[serde(default = "believability_range")]
+    pub believability_range: [u8; 2],
+}
+
+fn believability_range() -> [u8; 2] {
+    [1, 5]
+}
+
+impl Default for EmotionOptions {
+    fn default() -> Self {
+        EmotionOptions { believability: false, believability_range: believability_range() }
+    }
 }
 
 #[derive(Debug, Clone, PartialEq, Deserialize, Default)]
@@ -308,13 +323,14 @@ pub fn emotion_choices() -> &'static [String] {
     LabelSet::Emotion.labels()
 }
 
-/// The believability item of the emotion task (HapFACS: 1 = not believable … 5 = very believable).
-pub fn believability_item() -> LikertItem {
+/// The believability item of the emotion task over `[min, max]` (HapFACS: "0: not believable
+/// at all, 5: very believable"; facslab's default 1–5).
+pub fn believability_item([min, max]: [u8; 2]) -> LikertItem {
     LikertItem {
         measure: Scale::Believability,
         prompt: "How believable is this expression?".into(),
-        min: 1,
-        max: 5,
+        min,
+        max,
         min_label: "not believable at all".into(),
         max_label: "very believable".into(),
     }
@@ -402,7 +418,7 @@ impl RawDesign {
         }
         self.check_bounds()?;
         let items = match self.task {
-            TaskKind::Emotion => self.emotion.believability.then(believability_item).into_iter().collect(),
+            TaskKind::Emotion => self.emotion.believability.then(|| believability_item(self.emotion.believability_range)).into_iter().collect(),
             TaskKind::Rating => {
                 if self.rating.item.is_empty() {
                     return Err(fail("rating.item", "a rating study needs at least one [[rating.item]]"));
@@ -512,7 +528,12 @@ debrief = "Thanks."
     #[test]
     fn believability_adds_an_item() {
         let d = StudyDesign::from_toml(&format!("{BASE}[emotion]\nbelievability = true\n")).unwrap();
-        assert_eq!(d.items, vec![believability_item()]);
+        assert_eq!(d.items, vec![believability_item([1, 5])]);
+        // The seed's reading, 0 (not believable at all) to 5 (very believable).
+        let d = StudyDesign::from_toml(&format!("{BASE}[emotion]\nbelievability = true\nbelievability_range = [0, 5]\n")).unwrap();
+        assert_eq!((d.items[0].min, d.items[0].max), (0, 5));
+        let e = StudyDesign::from_toml(&format!("{BASE}[emotion]\nbelievability = true\nbelievability_range = [0, 7]\n")).unwrap_err();
+        assert_eq!(e.field, "rating.item[1] (believability)", "{e}");
     }
 
     #[test]

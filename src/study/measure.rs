@@ -87,7 +87,8 @@ pub struct Declaration {
 pub const DECLARATIONS: [Declaration; 10] = [
     declare(Measure::Aus, "aus", About::Stimulus, Kind::AuNotation, "AUs the coder marked, FACS notation (L/R = side, A-E = intensity); empty = no AU"),
     declare(Measure::Emotion, "emotion", About::Stimulus, Kind::Labels(LabelSet::Emotion), "Emotion chosen"),
-    declare(Measure::Scale(Scale::Believability), "believability", About::Stimulus, Kind::Likert { min: 1, max: 5 }, "How believable the expression is"),
+    // HapFACS reads "0: not believable at all, 5: very believable"; studies ask 1-5 by default.
+    declare(Measure::Scale(Scale::Believability), "believability", About::Stimulus, Kind::Likert { min: 0, max: 5 }, "How believable the expression is"),
     declare(Measure::Scale(Scale::DescriptionMatch), "description_match", About::Stimulus, Kind::Likert { min: 0, max: 5 }, "How well the stimulus matches its description"),
     declare(Measure::Scale(Scale::Q1), "q1", About::Stimulus, Kind::Likert { min: 0, max: 5 }, "Rating item q1 (0 = very little ... 5 = very much)"),
     declare(Measure::Scale(Scale::Q2), "q2", About::Stimulus, Kind::Likert { min: 0, max: 5 }, "Rating item q2 (0 = very little ... 5 = very much)"),
@@ -271,7 +272,7 @@ mod tests {
         }
         assert_eq!(Measure::parse("mood"), None);
         assert_eq!(Scale::ALL.map(Scale::name), ["believability", "description_match", "q1", "q2"]);
-        assert_eq!(Scale::Believability.range(), (1, 5));
+        assert_eq!(Scale::Believability.range(), (0, 5));
         assert_eq!(Scale::parse("age"), None);
         assert!(Demographic::ALL.iter().all(|d| Measure::Demographic(*d).about() == About::Participant));
     }
@@ -281,7 +282,8 @@ mod tests {
         let catalog = Catalog::built_in();
         let b = Measure::Scale(Scale::Believability);
         assert_eq!(b.value("4", catalog), Ok(Value::Likert(4)));
-        assert_eq!(b.value("0", catalog).unwrap_err(), "believability \"0\" is outside the scale 1-5 (whole numbers)");
+        assert_eq!(b.value("0", catalog), Ok(Value::Likert(0)));
+        assert_eq!(b.value("6", catalog).unwrap_err(), "believability \"6\" is outside the scale 0-5 (whole numbers)");
         assert_eq!(Measure::Scale(Scale::Q1).value("0", catalog), Ok(Value::Likert(0)));
         let age = Measure::Demographic(Demographic::Age);
         assert_eq!(age.value("36", catalog), Ok(Value::Years(36.0)));

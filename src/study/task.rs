@@ -274,6 +274,10 @@ mod tests {
         ] {
             assert_eq!(submit(&fields).answer(&d).unwrap_err().field, field);
         }
+        // 0 only where the study asks on HapFACS's 0-5 reading.
+        assert_eq!(submit(&[("emotion", "fear"), ("believability", "0")]).answer(&d).unwrap_err().field, "believability");
+        let paper = design("emotion", "[emotion]\nbelievability = true\nbelievability_range = [0, 5]\n");
+        assert!(submit(&[("emotion", "fear"), ("believability", "0")]).answer(&paper).is_ok());
     }
 
     #[test]
