@@ -14,7 +14,7 @@
 //! reservation_minutes = 120        # a participation idle this long is abandoned
 //! consent = "…"; instructions = "…"; debrief = "…"
 //!
-//! [emotion]    believability = true
+//! [emotion]    believability = true; believability_range = [1, 5]   # [0, 5]: HapFACS's reading
 //! [au_coding]  intensity = false; side = false
 //! [[rating.item]]  measure = "q1"; prompt = "Does the motion feel right?"; min = 0; max = 5
 //! [attention]  max_failures = 2; checks = [{ instruction = "…", measure = "emotion", value = "surprise" }]
