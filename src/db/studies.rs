@@ -160,7 +160,7 @@ impl Db {
     /// absolute path, so the server finds the media whatever its working directory).
     pub async fn create_study_from(&self, spec_toml: &str, set_dir: &std::path::Path, open: bool) -> Result<StudyDesign, DbError> {
         let design = StudyDesign::from_toml(spec_toml)?;
-        let stimuli = set_stimuli(set_dir, design.media)?;
+        let stimuli = set_stimuli(set_dir, &design)?;
         let set_dir = std::path::absolute(set_dir).unwrap_or_else(|_| set_dir.to_path_buf());
         self.create_study(&design, spec_toml, &set_dir.to_string_lossy(), &stimuli, open).await?;
         Ok(design)
@@ -243,12 +243,12 @@ impl Db {
 }
 
 /// The stimuli of a built set (its `manifest.json`) that a design admits, checked to exist.
-pub fn set_stimuli(set_dir: &std::path::Path, media: crate::study::design::MediaFilter) -> Result<Vec<StudyStimulus>, DbError> {
+pub fn set_stimuli(set_dir: &std::path::Path, design: &crate::study::StudyDesign) -> Result<Vec<StudyStimulus>, DbError> {
     let manifest = set_dir.join("manifest.json");
     let text = std::fs::read_to_string(&manifest).map_err(|e| DbError::NotFound(format!("{}: {e} (build the set first: facslab stimuli build SPEC -o DIR)", manifest.display())))?;
     let rows: Vec<crate::stimuli::manifest::ManifestRow> = serde_json::from_str(&text).map_err(|e| DbError::Invalid(format!("{}: {e}", manifest.display())))?;
     let mut stimuli = Vec::new();
-    for row in rows.into_iter().filter(|r| media.admits(r.media)) {
+    for row in rows.into_iter().filter(|r| design.admits(r.media, r.intensity)) {
         let id = StimulusId::parse(&row.stimulus_id).map_err(|e| DbError::Invalid(format!("{}: {e}", manifest.display())))?;
         let relative = std::path::Path::new(&row.file);
         if !crate::stimuli::manifest::is_media_path(&row.file) {

@@ -7,6 +7,7 @@
 //! group = "raters"                 # the `group` column of the exported responses
 //! stimuli = "../out/exp3"          # a built stimulus set, relative to this file
 //! media = "all"                    # all | image | video
+//! intensities = [100]              # peak intensities admitted, whole percent (default: all)
 //! trials_per_participant = 0       # 0 = every stimulus; n = a balanced share of n stimuli
 //! ratings_per_stimulus = 0         # with a share: completed ratings wanted per stimulus
 //! practice_trials = 1              # shown first, not exported with the trials
@@ -255,6 +256,8 @@ struct RawDesign {
     #[serde(default)]
     media: MediaFilter,
     #[serde(default)]
+    intensities: Vec<u32>,
+    #[serde(default)]
     trials_per_participant: usize,
     #[serde(default)]
     ratings_per_stimulus: usize,
@@ -299,6 +302,8 @@ pub struct StudyDesign {
     /// The stimulus set directory as written (relative to the design file).
     pub stimuli: String,
     pub media: MediaFilter,
+    /// The peak intensities admitted, in whole percent (empty = every one).
+    pub intensities: Vec<u32>,
     /// 0 = every stimulus.
     pub trials_per_participant: usize,
     /// 0 = no limit (every participant sees every stimulus).
@@ -346,6 +351,12 @@ impl StudyDesign {
     }
 
     /// The SHA-256 (hex) of the consent text, stored with each participant's consent.
+    /// Whether a stimulus of `media` with peak `intensity` (in [0, 1]) belongs to this study.
+    pub fn admits(&self, media: crate::stimuli::manifest::Media, intensity: f64) -> bool {
+        let percent = (intensity * 100.0).round() as u32;
+        self.media.admits(media) && (self.intensities.is_empty() || self.intensities.contains(&percent))
+    }
+
     /// The measures each main trial records, in column order: the task's own measure, then the
     /// Likert items.
     pub fn measures(&self) -> Vec<Measure> {
@@ -427,6 +438,7 @@ impl RawDesign {
             }
             TaskKind::AuCoding => Vec::new(),
         };
+        check_intensities(&self.intensities)?;
         check_items(&items)?;
         check_attention(self.task, &self.attention, &items)?;
         check_recruitment(&self.recruitment)?;
@@ -437,6 +449,7 @@ impl RawDesign {
             group: self.group,
             stimuli: self.stimuli,
             media: self.media,
+            intensities: self.intensities,
             trials_per_participant: self.trials_per_participant,
             ratings_per_stimulus: self.ratings_per_stimulus,
             practice_trials: self.practice_trials,
@@ -453,6 +466,18 @@ impl RawDesign {
             items,
         })
     }
+}
+
+fn check_intensities(intensities: &[u32]) -> Result<(), DesignError> {
+    for (i, &percent) in intensities.iter().enumerate() {
+        if !(1..=100).contains(&percent) {
+            return Err(fail("intensities", format!("{percent} is not a peak intensity in whole percent (1-100)")));
+        }
+        if intensities[..i].contains(&percent) {
+            return Err(fail("intensities", format!("{percent} is listed twice")));
+        }
+    }
+    Ok(())
 }
 
 fn check_items(items: &[LikertItem]) -> Result<(), DesignError> {
@@ -523,6 +548,19 @@ debrief = "Thanks."
         assert_eq!(d.attention.max_failures, 2);
         assert!(d.items.is_empty() && d.demographics && !d.shares_stimuli());
         assert_eq!(d.consent_sha256().len(), 64);
+    }
+
+    #[test]
+    fn intensities_filter_the_stimuli() {
+        use crate::stimuli::manifest::Media;
+        let d = StudyDesign::from_toml(&format!("{BASE}media = \"video\"\nintensities = [100]\n")).unwrap();
+        assert!(d.admits(Media::Video, 1.0) && !d.admits(Media::Video, 0.5) && !d.admits(Media::Image, 1.0));
+        let all = StudyDesign::from_toml(BASE).unwrap();
+        assert!(all.admits(Media::Video, 0.5) && all.admits(Media::Image, 1.0));
+        for bad in ["[0]", "[101]", "[50, 50]"] {
+            let e = StudyDesign::from_toml(&format!("{BASE}intensities = {bad}\n")).unwrap_err();
+            assert_eq!(e.field, "intensities", "{e}");
+        }
     }
 
     #[test]
