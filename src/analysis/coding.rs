@@ -198,7 +198,10 @@ pub struct CodingReport {
     pub au_set: Vec<u16>,
     pub per_au: Vec<AuRow>,
     pub total: Counts,
+    /// Averaged over every AU of the AU set (false-positive-only AUs included).
     pub macro_mean: Metrics,
+    /// Averaged over the AUs the coded stimuli show (HapFACS's Table 3 mean): the headline.
+    pub shown_macro_mean: Metrics,
     pub micro: Metrics,
     pub table1_groups: Vec<MetricGroup>,
     pub combinations: Vec<CombinationRow>,
@@ -207,7 +210,7 @@ pub struct CodingReport {
 }
 
 /// The module documentation, as stated in the report.
-pub const CONVENTION: &str = "Decisions: (coder, stimulus, AU) present/absent over every answered (coder, stimulus) pair; missing answers are left out and counted. AU set: catalog AUs occurring in the ground truth of a coded stimulus or in any answer. Metrics: HapFACS Eq. 2-5 (accuracy (TP+TN)/N, precision TP/(TP+FP), recall TP/(TP+FN), F1 2TP/(2TP+FP+FN)), 0/0 = 0; macro = unweighted mean over the AU set, micro = from summed counts. A shown AU marked with the wrong side/intensity (when matching is required) is a miss. Mistaken for: AUs marked on a stimulus that does not show them, counted at each miss. Combinations: grouped by shown AU codes; recognised = shown AUs recognised at least once; false positives in parentheses; metrics micro over the AU set; mean = macro over combinations. Agreement uses AU codes only over stimuli every coder answered (complete cases): Cronbach's alpha per AU (coders = items, stimuli = cases, marked = 1), Fleiss' kappa per AU and over (stimulus, AU) items, pairwise Cohen's kappa over (stimulus, AU) items, Dice = mean 2|A&B|/(|A|+|B|) over common stimuli.";
+pub const CONVENTION: &str = "Decisions: (coder, stimulus, AU) present/absent over every answered (coder, stimulus) pair; missing answers are left out and counted. AU set: catalog AUs occurring in the ground truth of a coded stimulus or in any answer. Metrics: HapFACS Eq. 2-5 (accuracy (TP+TN)/N, precision TP/(TP+FP), recall TP/(TP+FN), F1 2TP/(2TP+FP+FN)), 0/0 = 0; macro = unweighted mean, headline over the AUs the stimuli show (as HapFACS Table 3), beside it over the whole AU set (AUs only coders marked included); micro = from summed counts. A shown AU marked with the wrong side/intensity (when matching is required) is a miss. Mistaken for: AUs marked on a stimulus that does not show them, counted at each miss. Combinations: grouped by shown AU codes; recognised = shown AUs recognised at least once; false positives in parentheses; metrics micro over the AU set; mean = macro over combinations. Agreement uses AU codes only over stimuli every coder answered (complete cases): Cronbach's alpha per AU (coders = items, stimuli = cases, marked = 1), Fleiss' kappa per AU and over (stimulus, AU) items, pairwise Cohen's kappa over (stimulus, AU) items, Dice = mean 2|A&B|/(|A|+|B|) over common stimuli.";
 
 fn nearest_level(value: f64) -> IntensityLevel {
     let mut best = IntensityLevel::E;
@@ -497,6 +500,7 @@ pub fn analyze(manifest: &Manifest, responses: &Responses, catalog: &Catalog, op
         missing_pairs: coders.len() * by_stim.len() - answered_pairs,
         au_set,
         macro_mean: Metrics::mean(&all_metrics),
+        shown_macro_mean: Metrics::mean(&per_au.iter().filter(|r| r.shown_in > 0).map(|r| r.metrics).collect::<Vec<_>>()),
         micro: total.metrics(),
         total,
         table1_groups: table1_groups(&per_au),
@@ -579,5 +583,14 @@ mod tests {
         let r = run("s1,video,wm1,1,,1\ns2,video,wm1,2,,1\n", "c1,g,s1,1,aus,1,\nc2,g,s1,1,aus,1,\nc1,g,s2,2,aus,2,\n", CodingOptions::default());
         assert_eq!(r.missing_pairs, 1);
         assert_eq!(r.agreement.complete_stimuli, 1);
+    }
+
+    #[test]
+    fn the_headline_mean_is_over_the_aus_shown() {
+        // AU 1 shown and found; AU 2 only marked by the coder (a false positive).
+        let r = run("s1,video,wm1,1,,1\n", "c1,g,s1,1,aus,1+2,\n", CodingOptions::default());
+        assert_eq!((row(&r, 1).metrics.f1, row(&r, 2).metrics.f1), (1.0, 0.0));
+        assert_eq!(r.shown_macro_mean.f1, 1.0, "HapFACS Table 3's mean: AU 1 only");
+        assert_eq!(r.macro_mean.f1, 0.5, "over the AU set: AU 1 and AU 2");
     }
 }

@@ -95,7 +95,7 @@ fn per_au(c: &CodingReport) -> Table {
             Row::new(cells)
         })
         .collect();
-    for (label, m, total) in [("macro mean", c.macro_mean, None), ("micro", c.micro, Some(c.total))] {
+    for (label, m, total) in [("macro mean (shown AUs)", c.shown_macro_mean, None), ("macro mean (all AUs)", c.macro_mean, None), ("micro", c.micro, Some(c.total))] {
         let mut cells = vec![Cell::text(label), Cell::Empty, Cell::Empty];
         cells.extend(total.as_ref().map_or([Cell::Empty, Cell::Empty, Cell::Empty, Cell::Empty], counts));
         cells.extend(metrics(&m).into_iter().chain([Cell::Empty, Cell::Empty, Cell::Empty]));
