@@ -207,6 +207,52 @@ pub struct CodingReport {
     pub combinations: Vec<CombinationRow>,
     pub combinations_macro_mean: Metrics,
     pub agreement: Agreement,
+    /// This study beside the published AU-level figures (HapFACS §4.3.2).
+    pub comparison: Vec<AuLevelComparison>,
+}
+
+/// This study's single-AU recognition rate (mean recall over the AUs shown) or combination
+/// accuracy (mean over combinations), beside a published system's figure.
+#[derive(Debug, Clone, Serialize)]
+pub struct AuLevelComparison {
+    /// `single AUs` or `AU combinations`.
+    pub stimuli: String,
+    /// This study: how many AUs (or combinations) were shown, and the percent.
+    pub count: usize,
+    pub percent: f64,
+    /// The published system, its number of AUs (or combinations) and its percent.
+    pub system: String,
+    pub published_count: u32,
+    pub published_percent: f64,
+}
+
+/// Published AU-level figures (stimuli, system, count, percent).
+pub const PUBLISHED_AU_LEVEL: &str = include_str!("../../analysis/published/au_level.csv");
+
+fn published_au_level() -> Vec<(String, String, u32, f64)> {
+    PUBLISHED_AU_LEVEL
+        .lines()
+        .filter(|l| !l.starts_with('#') && !l.starts_with("stimuli,") && !l.trim().is_empty())
+        .filter_map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            Some((f.first()?.to_string(), f.get(1)?.to_string(), f.get(2)?.parse().ok()?, f.get(3)?.parse().ok()?))
+        })
+        .collect()
+}
+
+/// The comparison rows: a study of single AUs (Exp. 1) beside the published single-AU rates, a
+/// study of AU combinations (Exp. 2) beside the published combination accuracies.
+fn comparison(per_au: &[AuRow], shown_macro_mean: &Metrics, combinations: &[CombinationRow], combinations_macro_mean: &Metrics) -> Vec<AuLevelComparison> {
+    let (stimuli, count, percent) = if combinations.iter().any(|c| c.combination.contains('+')) {
+        ("AU combinations", combinations.len(), 100.0 * combinations_macro_mean.accuracy)
+    } else {
+        ("single AUs", per_au.iter().filter(|r| r.shown_in > 0).count(), 100.0 * shown_macro_mean.recall)
+    };
+    published_au_level()
+        .into_iter()
+        .filter(|(s, ..)| s == stimuli)
+        .map(|(stimuli, system, published_count, published_percent)| AuLevelComparison { stimuli, count, percent, system, published_count, published_percent })
+        .collect()
 }
 
 /// The module documentation, as stated in the report.
@@ -491,6 +537,8 @@ pub fn analyze(manifest: &Manifest, responses: &Responses, catalog: &Catalog, op
         }))
         .collect();
     let pairs = coder_pairs(responses, &coders, &coder_of, &au_set);
+    let shown_macro_mean = Metrics::mean(&per_au.iter().filter(|r| r.shown_in > 0).map(|r| r.metrics).collect::<Vec<_>>());
+    let comparison = comparison(&per_au, &shown_macro_mean, &combinations, &combinations_macro_mean);
     Some(CodingReport {
         convention: CONVENTION.to_string(),
         options,
@@ -500,7 +548,7 @@ pub fn analyze(manifest: &Manifest, responses: &Responses, catalog: &Catalog, op
         missing_pairs: coders.len() * by_stim.len() - answered_pairs,
         au_set,
         macro_mean: Metrics::mean(&all_metrics),
-        shown_macro_mean: Metrics::mean(&per_au.iter().filter(|r| r.shown_in > 0).map(|r| r.metrics).collect::<Vec<_>>()),
+        shown_macro_mean,
         micro: total.metrics(),
         total,
         table1_groups: table1_groups(&per_au),
@@ -508,6 +556,7 @@ pub fn analyze(manifest: &Manifest, responses: &Responses, catalog: &Catalog, op
         combinations,
         combinations_macro_mean,
         agreement: Agreement { complete_stimuli: complete.len(), fleiss_kappa: Maybe::of(fleiss_kappa(&fleiss_table)), pairs },
+        comparison,
     })
 }
 
@@ -583,6 +632,19 @@ mod tests {
         let r = run("s1,video,wm1,1,,1\ns2,video,wm1,2,,1\n", "c1,g,s1,1,aus,1,\nc2,g,s1,1,aus,1,\nc1,g,s2,2,aus,2,\n", CodingOptions::default());
         assert_eq!(r.missing_pairs, 1);
         assert_eq!(r.agreement.complete_stimuli, 1);
+    }
+
+    #[test]
+    fn published_au_level_figures_parse_and_sit_beside_this_study() {
+        let p = published_au_level();
+        assert_eq!(p.len(), 4);
+        assert!(p.contains(&("single AUs".to_string(), "HapFACS".to_string(), 49, 94.6)));
+        let single = run("s1,video,wm1,1,,1\ns2,video,wm1,2,,1\n", "c1,g,s1,1,aus,1,\nc1,g,s2,2,aus,1,\n", CodingOptions::default());
+        let rows: Vec<_> = single.comparison.iter().map(|c| (c.stimuli.as_str(), c.system.as_str(), c.count, c.percent)).collect();
+        // AU 1 found once of once, AU 2 never: mean recall 50 %.
+        assert_eq!(rows, [("single AUs", "HapFACS", 2, 50.0), ("single AUs", "FACSGen", 2, 50.0)]);
+        let combos = run("s1,video,wm1,1+2,,1\n", "c1,g,s1,1,aus,1+2,\n", CodingOptions::default());
+        assert!(combos.comparison.iter().all(|c| c.stimuli == "AU combinations" && c.percent == 100.0), "{:?}", combos.comparison);
     }
 
     #[test]

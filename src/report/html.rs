@@ -33,6 +33,7 @@ struct CodingPage {
     f1_plot: Option<Figure>,
     table4: Option<PageTable>,
     agreement: Option<PageTable>,
+    au_level: Option<PageTable>,
 }
 
 #[derive(Serialize)]
@@ -87,6 +88,7 @@ impl Views<'_> {
             f1_plot: self.plot("plot_f1_per_au.png"),
             table4: self.table("table4_combinations.csv", &[])?,
             agreement: self.table("coder_agreement.csv", &[])?,
+            au_level: self.table("au_level_comparison.csv", &[])?,
         })
     }
 

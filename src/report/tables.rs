@@ -52,6 +52,7 @@ pub(super) fn all(report: &Report) -> Vec<Table> {
     let mut out = Vec::new();
     if let Some(c) = &report.coding {
         out.extend([per_au(c), table1(c), table2(c), table4(c), agreement(c)]);
+        out.extend(au_level(c));
     }
     if let Some(r) = &report.rating {
         for (n, c) in r.conditions.iter().enumerate() {
@@ -158,6 +159,27 @@ fn agreement(c: &CodingReport) -> Table {
     Table::new("coder_agreement.csv", &["coder_a", "coder_b", "common_stimuli", "cohen_kappa", "dice_mean"], rows)
         .titled("Agreement between coders")
         .view(View::Columns(columns))
+}
+
+/// This study's single-AU recognition rate or combination accuracy beside the published ones
+/// (HapFACS §4.3.2); none when no published figure fits the study.
+fn au_level(c: &CodingReport) -> Option<Table> {
+    if c.comparison.is_empty() {
+        return None;
+    }
+    let rows = c
+        .comparison
+        .iter()
+        .map(|x| Row::new(vec![Cell::text(&x.stimuli), Cell::count(x.count), Cell::num(x.percent, 1), Cell::text(&x.system), Cell::Count(x.published_count.into()), Cell::num(x.published_percent, 1)]))
+        .collect();
+    let columns = vec![
+        Column::new("Stimuli", "{stimuli}"),
+        Column::new("This study", "{percent}% of {count}"),
+        Column::new("Published", "{system}: {published_percent}% of {published_count}"),
+    ];
+    let fields = ["stimuli", "count", "percent", "system", "published_count", "published_percent"];
+    let title = "AU level: this study beside published figures (single AUs: mean recognition rate; combinations: mean accuracy)";
+    Some(Table::new("au_level_comparison.csv", &fields, rows).titled(title).view(View::Columns(columns)))
 }
 
 /// Tables 7–10: a condition's confusion matrix, in counts (CSV only) and in row percent.
