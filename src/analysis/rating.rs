@@ -16,7 +16,8 @@
 //!   complete cases only: participants who rated every stimulus of the cell.
 //! - **Group comparisons**: per pair of participant groups and per condition, per-participant
 //!   recognition (proportion correct) and mean believability; per condition × emotion,
-//!   per-participant proportion correct. Student (pooled) and Welch t, two-sided, Cohen's d
+//!   per-participant proportion correct; the same per intensity over both media (HapFACS's
+//!   grouping: AMT vs local at 50 % and at 100 %, overall and per emotion). Student (pooled) and Welch t, two-sided, Cohen's d
 //!   (pooled SD), 95 % CI of the difference.
 //! - **ANOVA**: per media, emotion × intensity between-subjects two-way ANOVA on recognition
 //!   (1 = correct, per answer) and on believability (per rating), Type II and Type III SS with
@@ -38,7 +39,7 @@ use super::stats::reliability::cronbach_alpha;
 use super::outcome::Outcome;
 use super::stats::ttest::{TTest, student_t, welch_t};
 
-pub const CONVENTION: &str = "Conditions: media x peak intensity in whole percent. Labels: EmFACS labels (non-neutral alphabetically, then neutral) plus none; chance = 1/options. Confusion: rows = shown emotion, columns = chosen label, percent = row percent. Recognition rate = hits/answers per shown emotion; average rate = unweighted mean over shown emotions; accuracy = hits/all answers. Hu: Wagner (1993). Binomial: exact one-sided (greater) vs chance, Clopper-Pearson 95% CI. Ratings: mean and sample SD (n-1) over all ratings of a cell. Cronbach's alpha: participants = items, stimuli = cases, complete cases only (participants who rated every stimulus of the cell). Group comparisons: per-participant proportion correct or mean rating; Student (pooled) and Welch t, two-sided, Cohen's d with pooled SD, 95% CI of the difference. ANOVA: per media, emotion x intensity, between-subjects, per answer (recognition 1/0) or per rating, Type II and Type III SS, sum-to-zero contrasts.";
+pub const CONVENTION: &str = "Conditions: media x peak intensity in whole percent. Labels: EmFACS labels (non-neutral alphabetically, then neutral) plus none; chance = 1/options. Confusion: rows = shown emotion, columns = chosen label, percent = row percent. Recognition rate = hits/answers per shown emotion; average rate = unweighted mean over shown emotions; accuracy = hits/all answers. Hu: Wagner (1993). Binomial: exact one-sided (greater) vs chance, Clopper-Pearson 95% CI. Ratings: mean and sample SD (n-1) over all ratings of a cell. Cronbach's alpha: participants = items, stimuli = cases, complete cases only (participants who rated every stimulus of the cell). Group comparisons: per media x intensity condition and, as HapFACS grouped them, per intensity over both media; per-participant proportion correct or mean rating; Student (pooled) and Welch t, two-sided, Cohen's d with pooled SD, 95% CI of the difference. ANOVA: per media, emotion x intensity, between-subjects, per answer (recognition 1/0) or per rating, Type II and Type III SS, sum-to-zero contrasts.";
 
 /// A confusion matrix in counts and row percent.
 #[derive(Debug, Clone, Serialize)]
@@ -264,6 +265,8 @@ impl Context<'_> {
 /// The answers and ratings of one condition, in file order.
 struct ConditionData<'r> {
     key: CondKey,
+    /// How the group comparisons name it (`video 100%`, or `100% (images and videos)`).
+    name: String,
     stimuli: Vec<usize>,
     participants: Vec<usize>,
     answers: Vec<&'r EmotionAnswer>,
@@ -275,7 +278,7 @@ fn split_by_condition<'r>(ctx: &Context<'r>, keys: &[CondKey]) -> Vec<ConditionD
     let stim_cond_index: Vec<usize> = ctx.stim_conds.iter().map(|c| keys.iter().position(|k| k == c).unwrap_or(usize::MAX)).collect();
     let mut data: Vec<ConditionData<'r>> = keys
         .iter()
-        .map(|&key| ConditionData { key, stimuli: (0..ctx.manifest.len()).filter(|&s| ctx.stim_conds[s] == key).collect(), participants: Vec::new(), answers: Vec::new(), ratings: Vec::new() })
+        .map(|&key| ConditionData { key, name: cond_name(key), stimuli: (0..ctx.manifest.len()).filter(|&s| ctx.stim_conds[s] == key).collect(), participants: Vec::new(), answers: Vec::new(), ratings: Vec::new() })
         .collect();
     for e in &ctx.responses.emotions {
         data[stim_cond_index[e.stimulus]].answers.push(e);
@@ -291,6 +294,29 @@ fn split_by_condition<'r>(ctx: &Context<'r>, keys: &[CondKey]) -> Vec<ConditionD
         d.participants = (0..ctx.n_participants()).filter(|&p| here[p]).collect();
     }
     data
+}
+
+/// HapFACS's grouping for the group comparisons: each intensity over both media (it compares
+/// AMT and local raters per intensity), where more than one media has that intensity.
+fn pooled_by_intensity<'r>(data: &[ConditionData<'r>]) -> Vec<ConditionData<'r>> {
+    let mut intensities: Vec<u32> = data.iter().map(|d| d.key.1).collect();
+    intensities.sort_unstable_by(|a, b| b.cmp(a));
+    intensities.dedup();
+    let pool = |percent: u32| {
+        let parts: Vec<&ConditionData<'r>> = data.iter().filter(|d| d.key.1 == percent).collect();
+        let mut participants: Vec<usize> = parts.iter().flat_map(|d| d.participants.iter().copied()).collect();
+        participants.sort_unstable();
+        participants.dedup();
+        (parts.len() > 1).then(|| ConditionData {
+            key: parts[0].key,
+            name: format!("{percent}% (images and videos)"),
+            stimuli: parts.iter().flat_map(|d| d.stimuli.iter().copied()).collect(),
+            participants,
+            answers: parts.iter().flat_map(|d| d.answers.iter().copied()).collect(),
+            ratings: parts.iter().flat_map(|d| d.ratings.iter().copied()).collect(),
+        })
+    };
+    intensities.into_iter().filter_map(pool).collect()
 }
 
 /// Recognition in one condition: the confusion matrix and a row per shown emotion.
@@ -453,7 +479,7 @@ fn group_tests(ctx: &Context<'_>, d: &ConditionData<'_>, shown: &[usize]) -> Vec
                 }
                 let (student, welch) = ttests(&a, &b);
                 let (group_a, group_b) = (groups[ga].clone(), groups[gb].clone());
-                out.push(GroupTest { condition: cond_name(d.key), emotion, outcome: outcome.into(), group_a, group_b, a: describe(&a), b: describe(&b), student, welch });
+                out.push(GroupTest { condition: d.name.clone(), emotion, outcome: outcome.into(), group_a, group_b, a: describe(&a), b: describe(&b), student, welch });
             };
             if !d.answers.is_empty() {
                 push("all".into(), "recognition (proportion correct)", tallies.recognition(&pa, None), tallies.recognition(&pb, None));
@@ -562,10 +588,14 @@ pub fn analyze(manifest: &Manifest, responses: &Responses) -> Option<RatingRepor
     };
     let mut conditions = Vec::new();
     let mut tests = Vec::new();
-    for d in split_by_condition(&ctx, &ctx.condition_keys()) {
-        let recognition = recognition(&ctx, &d);
-        tests.extend(group_tests(&ctx, &d, &recognition.shown));
-        conditions.push(condition(&ctx, &d, recognition));
+    let data = split_by_condition(&ctx, &ctx.condition_keys());
+    for d in &data {
+        let recognition = recognition(&ctx, d);
+        tests.extend(group_tests(&ctx, d, &recognition.shown));
+        conditions.push(condition(&ctx, d, recognition));
+    }
+    for d in pooled_by_intensity(&data) {
+        tests.extend(group_tests(&ctx, &d, &recognition(&ctx, &d).shown));
     }
     let mut anova = Vec::new();
     for media in [Media::Video, Media::Image] {
@@ -612,6 +642,23 @@ mod tests {
         let belv = &c.scales[0];
         assert!((belv.alpha.value.unwrap() - 0.96).abs() < 1e-12);
         assert_eq!(belv.overall.as_ref().unwrap().n, 6);
+    }
+
+    #[test]
+    fn groups_are_also_compared_per_intensity_over_both_media() {
+        // One happy video and one happy still at 100 %; two raters per group, each sees one.
+        let m = "v,video,wm1,6+12+25,happiness,1\ni,image,wm1,6+12+25,happiness,1\n";
+        let r = "a1,amt,v,1,emotion,happiness,\na2,amt,i,1,emotion,happiness,\n\
+                 l1,local,v,1,emotion,none,\nl2,local,i,1,emotion,happiness,\n";
+        let rep = run(m, r);
+        let pooled: Vec<&GroupTest> = rep.group_tests.iter().filter(|t| t.condition == "100% (images and videos)").collect();
+        // Overall and for happiness: amt 1, 1 against local 0, 1.
+        assert_eq!(pooled.len(), 2, "{:?}", rep.group_tests.iter().map(|t| &t.condition).collect::<Vec<_>>());
+        assert_eq!((pooled[0].emotion.as_str(), pooled[1].emotion.as_str()), ("all", "happiness"));
+        let (a, b) = (pooled[0].a.as_ref().unwrap(), pooled[0].b.as_ref().unwrap());
+        assert_eq!((a.n, a.mean, b.n, b.mean), (2, 1.0, 2, 0.5));
+        // The per-condition tests are still there (one rater per group and condition: no t).
+        assert!(rep.group_tests.iter().any(|t| t.condition == "video 100%"));
     }
 
     #[test]
