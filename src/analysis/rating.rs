@@ -13,7 +13,9 @@
 //! - **Ratings** (believability, description match, q1, q2): mean and sample SD (n − 1) over all
 //!   ratings of a condition × emotion cell. Cronbach's α with participants as items and stimuli as
 //!   cases, per condition (all its stimuli) and per condition × emotion (when ≥ 2 stimuli),
-//!   complete cases only: participants who rated every stimulus of the cell.
+//!   complete cases only: participants who rated every stimulus of the cell. HapFACS's
+//!   "participants as items, the 10 videos as cases" with one video per emotion and condition
+//!   has a value only as the per-condition α; the per-emotion α is then undefined.
 //! - **Group comparisons**: per pair of participant groups and per condition, per-participant
 //!   recognition (proportion correct) and mean believability; per condition × emotion,
 //!   per-participant proportion correct; the same per intensity over both media (HapFACS's
@@ -39,7 +41,7 @@ use super::stats::reliability::cronbach_alpha;
 use super::outcome::Outcome;
 use super::stats::ttest::{TTest, student_t, welch_t};
 
-pub const CONVENTION: &str = "Conditions: media x peak intensity in whole percent. Labels: EmFACS labels (non-neutral alphabetically, then neutral) plus none; chance = 1/options. Confusion: rows = shown emotion, columns = chosen label, percent = row percent. Recognition rate = hits/answers per shown emotion; average rate = unweighted mean over shown emotions; accuracy = hits/all answers. Hu: Wagner (1993). Binomial: exact one-sided (greater) vs chance, Clopper-Pearson 95% CI. Ratings: mean and sample SD (n-1) over all ratings of a cell. Cronbach's alpha: participants = items, stimuli = cases, complete cases only (participants who rated every stimulus of the cell). Group comparisons: per media x intensity condition and, as HapFACS grouped them, per intensity over both media; per-participant proportion correct or mean rating; Student (pooled) and Welch t, two-sided, Cohen's d with pooled SD, 95% CI of the difference. ANOVA: per media, emotion x intensity, between-subjects, per answer (recognition 1/0) or per rating, Type II and Type III SS, sum-to-zero contrasts.";
+pub const CONVENTION: &str = "Conditions: media x peak intensity in whole percent. Labels: EmFACS labels (non-neutral alphabetically, then neutral) plus none; chance = 1/options. Confusion: rows = shown emotion, columns = chosen label, percent = row percent. Recognition rate = hits/answers per shown emotion; average rate = unweighted mean over shown emotions; accuracy = hits/all answers. Hu: Wagner (1993). Binomial: exact one-sided (greater) vs chance, Clopper-Pearson 95% CI. Ratings: mean and sample SD (n-1) over all ratings of a cell. Cronbach's alpha: participants = items, stimuli = cases (HapFACS: \"participants as items, the 10 videos as cases\"), complete cases only (participants who rated every stimulus of the cell); the condition's alpha over all its stimuli is the reading that has a value when each emotion has one stimulus per condition (the paper's design), the per-emotion alpha needs at least 2 stimuli of that emotion in the condition. Group comparisons: per media x intensity condition and, as HapFACS grouped them, per intensity over both media; per-participant proportion correct or mean rating; Student (pooled) and Welch t, two-sided, Cohen's d with pooled SD, 95% CI of the difference. ANOVA: per media, emotion x intensity, between-subjects, per answer (recognition 1/0) or per rating, Type II and Type III SS, sum-to-zero contrasts.";
 
 /// A confusion matrix in counts and row percent.
 #[derive(Debug, Clone, Serialize)]
