@@ -175,7 +175,7 @@ enum Command {
     Export(web::ExportArgs),
 
     /// The validation report of a study, straight from the study database.
-    #[command(after_help = "Examples:\n  facslab report --study exp3 --db lab.db -o exp3-report\n  facslab report --study exp1 --db lab.db -o strict --match-side --match-intensity\n\nExports the study's long responses (kept in OUTPUT.inputs/responses.csv) and analyses them\nagainst the manifest of the study's stimulus set, as `facslab analyze` does.")]
+    #[command(after_help = "Examples:\n  facslab report --study exp3 --db lab.db -o exp3-report\n  facslab report --study exp1 --db lab.db -o strict --match-side --match-intensity\n\nReads the study's judgements from the database and analyses them in memory against the\nmanifest of the study's stimulus set, as `facslab analyze` analyses files; a copy of the rows\nused is kept in OUTPUT.inputs/responses.csv (the bytes `facslab export` writes).")]
     Report(web::ReportArgs),
 
     /// Write synthetic responses and a manifest shaped like one of the seed's experiments.
