@@ -230,13 +230,8 @@ pub struct AuLevelComparison {
 pub const PUBLISHED_AU_LEVEL: &str = include_str!("../../analysis/published/au_level.csv");
 
 fn published_au_level() -> Vec<(String, String, u32, f64)> {
-    PUBLISHED_AU_LEVEL
-        .lines()
-        .filter(|l| !l.starts_with('#') && !l.starts_with("stimuli,") && !l.trim().is_empty())
-        .filter_map(|l| {
-            let f: Vec<&str> = l.split(',').collect();
-            Some((f.first()?.to_string(), f.get(1)?.to_string(), f.get(2)?.parse().ok()?, f.get(3)?.parse().ok()?))
-        })
+    super::published::rows(PUBLISHED_AU_LEVEL)
+        .filter_map(|f| Some((f.first()?.to_string(), f.get(1)?.to_string(), f.get(2)?.parse().ok()?, f.get(3)?.parse().ok()?)))
         .collect()
 }
 
