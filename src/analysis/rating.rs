@@ -216,13 +216,8 @@ fn named_terms(mut table: AnovaTable, a: &str, b: &str) -> AnovaTable {
 pub const PUBLISHED_TABLE14: &str = include_str!("../../analysis/published/table14.csv");
 
 fn published() -> Vec<(String, String, u32, f64, f64)> {
-    PUBLISHED_TABLE14
-        .lines()
-        .filter(|l| !l.starts_with('#') && !l.starts_with("emotion,") && !l.trim().is_empty())
-        .filter_map(|l| {
-            let f: Vec<&str> = l.split(',').collect();
-            Some((f[0].to_string(), f[1].to_string(), f[2].parse().ok()?, f[3].parse().ok()?, f[4].parse().ok()?))
-        })
+    super::published::rows(PUBLISHED_TABLE14)
+        .filter_map(|f| Some((f.first()?.to_string(), f.get(1)?.to_string(), f.get(2)?.parse().ok()?, f.get(3)?.parse().ok()?, f.get(4)?.parse().ok()?)))
         .collect()
 }
 
@@ -299,24 +294,29 @@ fn split_by_condition<'r>(ctx: &Context<'r>, keys: &[CondKey]) -> Vec<ConditionD
 }
 
 /// HapFACS's grouping for the group comparisons: each intensity over both media (it compares
-/// AMT and local raters per intensity), where more than one media has that intensity.
-fn pooled_by_intensity<'r>(data: &[ConditionData<'r>]) -> Vec<ConditionData<'r>> {
+/// AMT and local raters per intensity), where more than one media has that intensity; with the
+/// emotions shown there (those shown in any of its conditions, `shown[i]` for `data[i]`).
+fn pooled_by_intensity<'r>(data: &[ConditionData<'r>], shown: &[Vec<usize>]) -> Vec<(ConditionData<'r>, Vec<usize>)> {
     let mut intensities: Vec<u32> = data.iter().map(|d| d.key.1).collect();
     intensities.sort_unstable_by(|a, b| b.cmp(a));
     intensities.dedup();
     let pool = |percent: u32| {
-        let parts: Vec<&ConditionData<'r>> = data.iter().filter(|d| d.key.1 == percent).collect();
-        let mut participants: Vec<usize> = parts.iter().flat_map(|d| d.participants.iter().copied()).collect();
+        let parts: Vec<usize> = (0..data.len()).filter(|&i| data[i].key.1 == percent).collect();
+        let mut participants: Vec<usize> = parts.iter().flat_map(|&i| data[i].participants.iter().copied()).collect();
         participants.sort_unstable();
         participants.dedup();
-        (parts.len() > 1).then(|| ConditionData {
-            key: parts[0].key,
+        let mut labels: Vec<usize> = parts.iter().flat_map(|&i| shown[i].iter().copied()).collect();
+        labels.sort_unstable();
+        labels.dedup();
+        let pooled = ConditionData {
+            key: data[parts[0]].key,
             name: format!("{percent}% (images and videos)"),
-            stimuli: parts.iter().flat_map(|d| d.stimuli.iter().copied()).collect(),
+            stimuli: parts.iter().flat_map(|&i| data[i].stimuli.iter().copied()).collect(),
             participants,
-            answers: parts.iter().flat_map(|d| d.answers.iter().copied()).collect(),
-            ratings: parts.iter().flat_map(|d| d.ratings.iter().copied()).collect(),
-        })
+            answers: parts.iter().flat_map(|&i| data[i].answers.iter().copied()).collect(),
+            ratings: parts.iter().flat_map(|&i| data[i].ratings.iter().copied()).collect(),
+        };
+        (parts.len() > 1).then_some((pooled, labels))
     };
     intensities.into_iter().filter_map(pool).collect()
 }
@@ -591,13 +591,15 @@ pub fn analyze(manifest: &Manifest, responses: &Responses) -> Option<RatingRepor
     let mut conditions = Vec::new();
     let mut tests = Vec::new();
     let data = split_by_condition(&ctx, &ctx.condition_keys());
+    let mut shown = Vec::new();
     for d in &data {
         let recognition = recognition(&ctx, d);
         tests.extend(group_tests(&ctx, d, &recognition.shown));
+        shown.push(recognition.shown.clone());
         conditions.push(condition(&ctx, d, recognition));
     }
-    for d in pooled_by_intensity(&data) {
-        tests.extend(group_tests(&ctx, &d, &recognition(&ctx, &d).shown));
+    for (d, shown) in pooled_by_intensity(&data, &shown) {
+        tests.extend(group_tests(&ctx, &d, &shown));
     }
     let mut anova = Vec::new();
     for media in [Media::Video, Media::Image] {
