@@ -8,7 +8,9 @@ where
     I: IntoIterator<Item = T>,
     T: AsRef<[u8]>,
 {
-    let mut writer = csv::WriterBuilder::new().terminator(csv::Terminator::Any(b'\n')).from_writer(Vec::new());
+    // A small buffer: the default 8 KiB is made for files, not for one row of an export (longer
+    // records still work: the writer flushes into the Vec as its buffer fills).
+    let mut writer = csv::WriterBuilder::new().buffer_capacity(256).terminator(csv::Terminator::Any(b'\n')).from_writer(Vec::new());
     // Writing UTF-8 text into memory cannot fail; the fields are `str` bytes, so the result is UTF-8.
     if writer.write_record(fields).is_ok()
         && let Ok(bytes) = writer.into_inner()
@@ -40,5 +42,8 @@ mod tests {
         let mut reader = csv::ReaderBuilder::new().has_headers(false).from_reader(text.as_bytes());
         let back: Vec<String> = reader.records().next().unwrap().unwrap().iter().map(String::from).collect();
         assert_eq!(back, ["x,y", "q\"", ""]);
+        // A record longer than the writer's buffer.
+        let long = "x".repeat(1000);
+        assert_eq!(line([long.as_str(), "y,z"]), format!("{long},\"y,z\"\n"));
     }
 }
