@@ -222,11 +222,12 @@ impl<'a> Reader<'a> {
     /// One judgement: about the participant (no stimulus) or about a stimulus, as declared.
     fn judged(&mut self, pid: &str, group: &str, sid: &str, measure: Measure, value: &str, place: Place) -> Result<(), InputError> {
         let p = self.participant(pid, group, place)?;
-        let name = measure.name();
         match (measure.about(), sid.is_empty()) {
             (About::Participant, true) => self.demographic(p, measure, value, place),
-            (About::Participant, false) => Err(self.cell(place, "stimulus_id", format!("measure \"{name}\" is about the participant: stimulus_id must be empty"))),
-            (About::Stimulus, true) => Err(self.cell(place, "stimulus_id", format!("measure \"{name}\" needs a stimulus id"))),
+            (About::Participant, false) => {
+                Err(self.cell(place, "stimulus_id", format!("measure \"{}\" is about the participant: stimulus_id must be empty", measure.name())))
+            }
+            (About::Stimulus, true) => Err(self.cell(place, "stimulus_id", format!("measure \"{}\" needs a stimulus id", measure.name()))),
             (About::Stimulus, false) => {
                 let s = self.stimulus(sid, place)?;
                 self.judgements.push(Judgement { key: (p as u64 * self.manifest.len() as u64 + s as u64) * SLOTS + slot(measure), row: place.row, line: place.line });

@@ -27,7 +27,7 @@
 
 use serde::Deserialize;
 
-use super::measure::{LabelSet, Measure, Scale};
+use super::measure::{Measure, Scale};
 
 /// A design that cannot be used; `field` says where.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -323,11 +323,6 @@ pub struct StudyDesign {
     pub items: Vec<LikertItem>,
 }
 
-/// The answer labels of the emotion task: the EmFACS labels (with neutral) and "none".
-pub fn emotion_choices() -> &'static [String] {
-    LabelSet::Emotion.labels()
-}
-
 /// The believability item of the emotion task over `[min, max]` (HapFACS: "0: not believable
 /// at all, 5: very believable"; facslab's default 1–5).
 pub fn believability_item([min, max]: [u8; 2]) -> LikertItem {
@@ -594,12 +589,5 @@ debrief = "Thanks."
         }
         let e = StudyDesign::from_toml(&format!("{BASE}colour = 1\n")).unwrap_err();
         assert!(e.message.contains("colour"), "{e}");
-    }
-
-    #[test]
-    fn emotion_choices_are_the_nine_neutral_and_none() {
-        let c = emotion_choices();
-        assert_eq!(c.len(), 11);
-        assert!(c.contains(&"neutral".to_string()) && c.last().unwrap() == "none");
     }
 }

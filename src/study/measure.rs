@@ -295,6 +295,9 @@ mod tests {
         assert_eq!(aus.text(Measure::Aus), catalog.parse("2+1B").unwrap().to_string());
         assert_eq!(Measure::Aus.value("", catalog).unwrap().text(Measure::Aus), "");
         assert!(Measure::Aus.value("1+77", catalog).is_err());
-        assert_eq!(LabelSet::Emotion.labels().last().map(String::as_str), Some("none"));
+        // The emotion task's choices: the nine EmFACS emotions, neutral, and none.
+        let labels = LabelSet::Emotion.labels();
+        assert_eq!(labels.len(), 11);
+        assert!(labels.contains(&"neutral".to_string()) && labels.last().map(String::as_str) == Some("none"));
     }
 }

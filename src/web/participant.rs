@@ -27,8 +27,7 @@ use crate::db::{secret_token, token_sha256};
 use crate::facs::{Catalog, Region};
 use crate::stimuli::manifest::Media;
 use crate::study::assign::TrialKind;
-use crate::study::design::emotion_choices;
-use crate::study::measure::Demographic;
+use crate::study::measure::{Demographic, LabelSet};
 use crate::study::{Platform, SessionState, Submission, TaskKind, worker};
 
 pub fn routes() -> Router<AppState> {
@@ -359,7 +358,7 @@ async fn trial_page(State(app): State<AppState>, token: ParticipationToken) -> R
     let done = trials.iter().filter(|t| t.answered).count();
     let attention = trial.check_index.and_then(|i| design.attention.checks.get(i)).map(|c| c.instruction.clone());
     let description = (design.task == TaskKind::Rating).then(|| design.rating.descriptions.get(&stimulus.emotion).cloned()).flatten();
-    let choices: Vec<_> = emotion_choices().into_iter().map(|c| json!({ "value": c, "label": if c == "none" { "None of these".to_string() } else { capitalised(&c) } })).collect();
+    let choices: Vec<_> = LabelSet::Emotion.labels().iter().map(|c| json!({ "value": c, "label": if c == "none" { "None of these".to_string() } else { capitalised(&c) } })).collect();
     let items: Vec<_> = design
         .items
         .iter()
