@@ -87,6 +87,10 @@ pub struct Edge {
     /// One password check (argon2, a core for tens of milliseconds) at a time, so a flood of
     /// logins leaves the other core to everyone else.
     pub password_checks: tokio::sync::Semaphore,
+    /// The `Last-Modified` every stimulus is served with: when this server started, the same for
+    /// every file. A file's own time would tell the order the set was built in, which follows the
+    /// spec's order, which follows what the stimuli show.
+    pub media_last_modified: axum::http::HeaderValue,
 }
 
 impl Edge {
@@ -96,6 +100,8 @@ impl Edge {
             login_addresses: limit::Limiter::new(LOGIN_FAILURES_PER_ADDRESS, LOGIN_WINDOW),
             starts: limit::Limiter::new(config.starts_per_address, START_WINDOW),
             password_checks: tokio::sync::Semaphore::new(1),
+            media_last_modified: axum::http::HeaderValue::from_str(&httpdate::fmt_http_date(std::time::SystemTime::now()))
+                .expect("an HTTP date is a valid header value"),
             config,
         }
     }

@@ -449,6 +449,12 @@ async fn media(State(app): State<AppState>, token: ParticipationToken, TrialPosi
         headers.insert(header::CONTENT_TYPE, HeaderValue::from_static(kind.content_type()));
     }
     headers.insert(header::CACHE_CONTROL, HeaderValue::from_static("private, max-age=3600"));
+    // Revalidation still works (a file built before the server started is older than this time),
+    // but no file's own time is sent.
+    if headers.contains_key(header::LAST_MODIFIED) {
+        headers.insert(header::LAST_MODIFIED, app.edge.media_last_modified.clone());
+    }
+    headers.remove(header::ETAG);
     Ok(response)
 }
 

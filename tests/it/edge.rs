@@ -141,9 +141,19 @@ async fn edge_saves_and_media_wait_for_the_steps_before_them() {
 /// route answers both, with the stimulus's type and the edge's headers.
 #[tokio::test(flavor = "multi_thread")]
 async fn edge_media_answer_byte_ranges_and_revalidation() {
-    let (_lab, server, http) = emotion_lab("emo", "");
+    let (lab, server, http) = emotion_lab("emo", "");
+    // Each stimulus file gets a different old time, as a build in spec order would give them.
+    let media: Vec<_> = std::fs::read_dir(lab.path().join("set/media")).unwrap().map(|e| e.unwrap().path()).collect();
+    let old_dates: Vec<String> = (0..media.len())
+        .map(|i| {
+            let when = std::time::SystemTime::UNIX_EPOCH + std::time::Duration::from_secs(978_307_200 + 86_400 * i as u64);
+            std::fs::File::options().write(true).open(&media[i]).unwrap().set_modified(when).unwrap();
+            httpdate::fmt_http_date(when)
+        })
+        .collect();
     let token = start(&http, &server, "emo", &[]).await;
     consent_and_demographics(&http, &server, &token).await;
+    let mut times_sent = Vec::new();
     let (url, video, last_modified) = loop {
         let position = current_position(&http, &server, &token).await.expect("the video comes before the end");
         let url = server.url(&format!("/p/{token}/media/{position}"));
@@ -153,8 +163,15 @@ async fn edge_media_answer_byte_ranges_and_revalidation() {
         let (content_type, last_modified) = (header("content-type"), header("last-modified"));
         assert_eq!((header("cache-control").as_str(), header("x-content-type-options").as_str(), header("accept-ranges").as_str()), ("private, max-age=3600", "nosniff", "bytes"));
         assert!(header("content-security-policy").contains("default-src 'self'"));
+        times_sent.push(last_modified.clone());
         let bytes = whole.bytes().await.unwrap();
         if content_type == "video/mp4" {
+            // One more stimulus to compare times with: an earlier trial's, or the next one's (which
+            // may be preloaded) when the video is the first trial.
+            let other = if position > 0 { position - 1 } else { position + 1 };
+            let other = http.get(server.url(&format!("/p/{token}/media/{other}"))).send().await.unwrap();
+            assert_eq!(other.status(), 200);
+            times_sent.push(other.headers()["last-modified"].to_str().unwrap().to_string());
             break (url, bytes, last_modified);
         }
         assert_eq!(content_type, "image/png");
@@ -173,7 +190,12 @@ async fn edge_media_answer_byte_ranges_and_revalidation() {
     let past = http.get(&url).header("range", format!("bytes={}-{}", len + 5, len + 9)).send().await.unwrap();
     assert_eq!(past.status(), 416);
     assert_eq!(past.headers()["content-range"].to_str().unwrap(), format!("bytes */{len}"));
-    assert!(!last_modified.is_empty(), "the file's time is sent");
+    assert!(!last_modified.is_empty(), "a time to revalidate against is sent");
+    // ... and it is the same for every stimulus, never a file's own time (which would tell the
+    // order the set was built in).
+    assert!(times_sent.len() >= 2 && times_sent.iter().all(|t| *t == last_modified), "{times_sent:?}");
+    assert!(media.len() >= 2);
+    assert!(!old_dates.contains(&last_modified), "{last_modified} is a file's own time");
     let again = http.get(&url).header("if-modified-since", &last_modified).send().await.unwrap();
     assert_eq!(again.status(), 304);
     assert!(again.bytes().await.unwrap().is_empty());
