@@ -70,6 +70,8 @@ pub use crate::analysis::responses::LONG_HEADER;
 struct ParticipantRecord {
     participant_id: String,
     group: String,
+    /// The between-subject arm (`study::arm`; empty without arms).
+    arm: String,
     state: String,
     excluded: bool,
     demographics: Option<Demographics>,
@@ -121,7 +123,7 @@ impl ParticipantRecord {
 
     fn wide_row(&self, columns: &[(String, String)], out: &mut String) {
         let d = self.demographics.clone().unwrap_or_default();
-        let mut cells = vec![self.participant_id.clone(), self.group.clone()];
+        let mut cells = vec![self.participant_id.clone(), self.group.clone(), self.arm.clone()];
         cells.extend(Demographic::ALL.map(|m| d.text(m)));
         let answers: HashMap<(&str, &str), &str> = self
             .trials
@@ -219,7 +221,7 @@ impl Db {
     {
         let demographics = self.demographics_of(study_id).await?;
         let sql = format!(
-            "SELECT p.id, p.public_id, p.grp, p.state, p.excluded, t.position, t.kind, t.stimulus_id, r.answers, r.rt_ms, r.video_ended, r.load_failed, r.received_at
+            "SELECT p.id, p.public_id, p.grp, p.state, p.excluded, t.position, t.kind, t.stimulus_id, r.answers, r.rt_ms, r.video_ended, r.load_failed, r.received_at, p.arm
              FROM participants p JOIN trials t ON t.participant_id = p.id JOIN responses r ON r.participant_id = t.participant_id AND r.position = t.position
              WHERE p.study_id = ? AND {} ORDER BY p.id, t.position",
             scope_sql(scope)
@@ -238,6 +240,7 @@ impl Db {
                 let record = ParticipantRecord {
                     participant_id: row.get(1),
                     group: row.get(2),
+                    arm: row.get(13),
                     state: row.get(3),
                     excluded: row.get::<i64, _>(4) != 0,
                     demographics: demographics.get(&id).cloned(),
@@ -285,7 +288,7 @@ fn head(format: Format, columns: &[(String, String)]) -> String {
     match format {
         Format::Long => LONG_HEADER.to_string(),
         Format::Wide => {
-            let fixed = ["participant_id", "group"].into_iter().chain(Demographic::ALL.map(Demographic::name)).map(String::from);
+            let fixed = ["participant_id", "group", "arm"].into_iter().chain(Demographic::ALL.map(Demographic::name)).map(String::from);
             crate::tabular::line(fixed.chain(columns.iter().map(|(s, m)| format!("{s}:{m}"))))
         }
         Format::Json => "{\"participants\": [\n".to_string(),
@@ -315,7 +318,8 @@ pub fn codebook(design: &StudyDesign) -> String {
     let long = "responses.csv";
     let measures: Vec<Measure> = design.measures().into_iter().chain(Demographic::ALL.map(Measure::Demographic)).collect();
     row(long, "participant_id", "Opaque participant id (not the platform's worker id)", "");
-    row(long, "group", "The study's group label", &design.group);
+    let groups: Vec<&str> = design.sources.iter().map(|s| s.group.as_str()).collect();
+    row(long, "group", "The recruitment source's group label (the study's own group, then one per further platform)", &groups.join("|"));
     row(long, "stimulus_id", "Stimulus id of the set's manifest (empty on demographic rows)", "");
     row(long, "trial", "Presentation position of the trial, 1-based, counting practice and attention trials (empty on demographic rows)", "");
     row(long, "measure", "What the value is", &measures.iter().map(|m| m.name()).collect::<Vec<_>>().join("|"));
@@ -332,6 +336,8 @@ pub fn codebook(design: &StudyDesign) -> String {
             _ => row("", declared.name, declared.codebook, ""),
         }
     }
+    let arms: Vec<&str> = design.arms.iter().map(|a| a.name.as_str()).collect();
+    row("wide.csv", "arm", "The between-subject arm the participant joined (empty when the design has none)", &arms.join("|"));
     row("wide.csv", "<stimulus_id>:<measure>", "One column per stimulus and measure; one row per participant", "");
     row("responses.json", "participants[].trials[]", "Every saved trial with kind (practice|trial|attention), answers, rt_ms, video_ended, load_failed, received_at (Unix ms)", "");
     out

@@ -17,6 +17,7 @@ use super::{Db, DbError, now_ms, secret_token, token_sha256};
 use crate::stimuli::manifest::StimulusId;
 use crate::study::assign::{self, PlannedTrial, TrialKind};
 use crate::study::task::passes_check;
+use crate::study::design::Source;
 use crate::study::{Answer, SessionState, StudyDesign};
 
 /// A participation as the pages need it.
@@ -26,7 +27,11 @@ pub struct Participation {
     pub study_id: i64,
     pub public_id: String,
     pub worker_id: String,
+    /// The platform it came through (which names its recruitment source).
+    pub platform: String,
     pub platform_params: String,
+    /// The between-subject arm it joined (empty without arms).
+    pub arm: String,
     pub state: SessionState,
     pub consented: bool,
     pub has_demographics: bool,
@@ -101,7 +106,9 @@ fn participation(row: sqlx::sqlite::SqliteRow) -> Result<Participation, DbError>
         study_id: row.get("study_id"),
         public_id: row.get("public_id"),
         worker_id: row.get("worker_id"),
+        platform: row.get("platform"),
         platform_params: row.get("platform_params"),
+        arm: row.get("arm"),
         state: SessionState::parse(&state).ok_or_else(|| DbError::Internal(format!("unknown state \"{state}\"")))?,
         consented: row.get::<Option<String>, _>("consent_sha256").is_some(),
         has_demographics: row.get::<i64, _>("has_demographics") != 0,
@@ -151,8 +158,8 @@ impl Db {
     /// Starts a participation for `worker_id` (or finds the one it has): assigns the balanced
     /// share of stimuli and the seeded trial plan, stored by the writer task together with the
     /// other writes waiting.
-    pub async fn start_participation(&self, study_id: i64, design: &StudyDesign, worker_id: &str, platform_params: &str) -> Result<Started, DbError> {
-        let request = StartRequest::new(study_id, design, worker_id, platform_params);
+    pub async fn start_participation(&self, study_id: i64, design: &StudyDesign, source: &Source, worker_id: &str, platform_params: &str) -> Result<Started, DbError> {
+        let request = StartRequest::new(study_id, design, source, worker_id, platform_params);
         match self.write(Request::Start(request)).await? {
             Written::Started(started) => Ok(started),
             other => Err(other.unexpected()),
@@ -255,7 +262,8 @@ impl Db {
     pub async fn participants(&self, study_id: i64) -> Result<Vec<ParticipantSummary>, DbError> {
         let rows = sqlx::query(
             "SELECT p.public_id, p.worker_id, p.state, p.excluded, COALESCE(p.exclusion_reason, ''), p.attention_failures, p.created_at, p.updated_at,
-                    (SELECT COUNT(*) FROM responses r WHERE r.participant_id = p.id), (SELECT COUNT(*) FROM trials t WHERE t.participant_id = p.id)
+                    (SELECT COUNT(*) FROM responses r WHERE r.participant_id = p.id), (SELECT COUNT(*) FROM trials t WHERE t.participant_id = p.id),
+                    p.grp, p.arm
              FROM participants p WHERE p.study_id = ? ORDER BY p.id",
         )
         .bind(study_id)
@@ -274,6 +282,8 @@ impl Db {
                 updated_at: r.get(7),
                 answered: r.get(8),
                 trials: r.get(9),
+                group: r.get(10),
+                arm: r.get(11),
             })
             .collect())
     }
@@ -292,6 +302,9 @@ pub struct SaveTiming {
 pub struct ParticipantSummary {
     pub public_id: String,
     pub worker_id: String,
+    /// The recruitment source's group and the between-subject arm (empty without arms).
+    pub group: String,
+    pub arm: String,
     pub state: String,
     pub excluded: bool,
     pub exclusion_reason: String,
@@ -392,6 +405,8 @@ pub(crate) struct StartRequest {
     platform: &'static str,
     platform_params: String,
     group: String,
+    /// The design's arm names, in declaration order (empty: no arms).
+    arms: Vec<String>,
     trials_per_participant: usize,
     ratings_per_stimulus: usize,
     practice_trials: usize,
@@ -400,13 +415,14 @@ pub(crate) struct StartRequest {
 }
 
 impl StartRequest {
-    pub(crate) fn new(study_id: i64, design: &StudyDesign, worker_id: &str, platform_params: &str) -> StartRequest {
+    pub(crate) fn new(study_id: i64, design: &StudyDesign, source: &Source, worker_id: &str, platform_params: &str) -> StartRequest {
         StartRequest {
             study_id,
             worker_id: worker_id.to_string(),
-            platform: design.recruitment.platform.as_str(),
+            platform: source.platform.as_str(),
             platform_params: platform_params.to_string(),
-            group: design.group.clone(),
+            group: source.group.clone(),
+            arms: design.arms.iter().map(|a| a.name.clone()).collect(),
             trials_per_participant: design.trials_per_participant,
             ratings_per_stimulus: design.ratings_per_stimulus,
             practice_trials: design.practice_trials,
@@ -458,19 +474,26 @@ pub(crate) async fn start_in(conn: &mut SqliteConnection, start: &StartRequest, 
     if let Some(row) = existing {
         return Ok(Started::Existing(row.get(0)));
     }
-    let study_loads = loads.of(conn, start.study_id, now).await?;
     let seed = u64::from_str_radix(&secret_token()[..16], 16).unwrap_or(0) >> 1;
-    let Ok(share) = assign::choose_stimuli(study_loads, start.trials_per_participant, start.ratings_per_stimulus, seed) else {
+    let arm = match start.arms.is_empty() {
+        true => String::new(),
+        false => join_arm(conn, start, now, seed).await?,
+    };
+    let members = arm_members(conn, start.study_id, &arm).await?;
+    let study_loads = loads.of(conn, start.study_id, now).await?;
+    // Practice stimuli come from the whole study (outside the participant's share when it can).
+    let pool: Vec<String> = study_loads.iter().map(|(id, _)| id.clone()).collect();
+    let arm_loads: Vec<(String, usize)> = study_loads.iter().filter(|(id, _)| members.as_ref().is_none_or(|m| m.contains(id))).cloned().collect();
+    let Ok(share) = assign::choose_stimuli(&arm_loads, start.trials_per_participant, start.ratings_per_stimulus, seed) else {
         return Ok(Started::Full);
     };
-    let pool: Vec<String> = study_loads.iter().map(|(id, _)| id.clone()).collect();
     let plan = assign::plan_trials(&share, &pool, start.practice_trials, start.attention_checks, seed);
     let token = secret_token();
     let public_id = format!("p{}", &secret_token()[..12]);
     let expires = now + i64::from(start.reservation_minutes) * 60_000;
     let id: i64 = sqlx::query(
-        "INSERT INTO participants (study_id, token_sha256, public_id, worker_id, platform, platform_params, grp, seed, state, created_at, updated_at, expires_at)
-         VALUES (?, ?, ?, ?, ?, ?, ?, ?, 'reserved', ?, ?, ?) RETURNING id",
+        "INSERT INTO participants (study_id, token_sha256, public_id, worker_id, platform, platform_params, grp, arm, seed, state, created_at, updated_at, expires_at)
+         VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, 'reserved', ?, ?, ?) RETURNING id",
     )
     .bind(start.study_id)
     .bind(token_sha256(&token))
@@ -479,6 +502,7 @@ pub(crate) async fn start_in(conn: &mut SqliteConnection, start: &StartRequest, 
     .bind(start.platform)
     .bind(&start.platform_params)
     .bind(&start.group)
+    .bind(&arm)
     .bind(seed as i64)
     .bind(now)
     .bind(now)
@@ -490,6 +514,34 @@ pub(crate) async fn start_in(conn: &mut SqliteConnection, start: &StartRequest, 
     log_transition(conn, id, None, SessionState::Reserved, "started").await?;
     loads.add(start.study_id, &share);
     Ok(Started::New(token))
+}
+
+/// The arm a new participation joins: one with the fewest participations that count (as for
+/// the stimulus loads: not excluded; completed, or open and unexpired, and consented in time).
+async fn join_arm(conn: &mut SqliteConnection, start: &StartRequest, now: i64, seed: u64) -> Result<String, DbError> {
+    let rows = sqlx::query(
+        "SELECT arm, COUNT(*) FROM participants WHERE study_id = ?1 AND excluded = 0
+             AND (state = 'completed' OR (state IN ('reserved', 'active') AND expires_at > ?2))
+             AND (state <> 'reserved' OR created_at > ?2 - ?3)
+         GROUP BY arm",
+    )
+    .bind(start.study_id)
+    .bind(now)
+    .bind(CONSENT_WITHIN_MS)
+    .fetch_all(&mut *conn)
+    .await?;
+    let counted: HashMap<String, i64> = rows.into_iter().map(|r| (r.get(0), r.get(1))).collect();
+    let counts: Vec<usize> = start.arms.iter().map(|a| counted.get(a).copied().unwrap_or(0) as usize).collect();
+    Ok(start.arms.get(crate::study::arm::choose_arm(&counts, seed)).cloned().unwrap_or_default())
+}
+
+/// The stimuli of `arm` (`None`: no arm, every stimulus of the study).
+async fn arm_members(conn: &mut SqliteConnection, study_id: i64, arm: &str) -> Result<Option<std::collections::HashSet<String>>, DbError> {
+    if arm.is_empty() {
+        return Ok(None);
+    }
+    let rows = sqlx::query("SELECT stimulus_id, arms FROM stimuli WHERE study_id = ?").bind(study_id).fetch_all(&mut *conn).await?;
+    Ok(Some(rows.into_iter().filter(|r| r.get::<String, _>(1).split_whitespace().any(|a| a == arm)).map(|r| r.get(0)).collect()))
 }
 
 /// Consent inside the writer's transaction: reserved → active (once).

@@ -78,13 +78,15 @@ pub struct StudyStimulus {
     pub media: Media,
     pub file: String,
     pub emotion: String,
+    /// The design's arms this stimulus belongs to (`study::arm`; empty without arms).
+    pub arms: Vec<String>,
 }
 
 impl StudyStimulus {
     /// The still `media/<id>.png` without an emotion label.
     pub fn still(stimulus_id: StimulusId) -> StudyStimulus {
         let file = format!("media/{stimulus_id}.png");
-        StudyStimulus { stimulus_id, media: Media::Image, file, emotion: String::new() }
+        StudyStimulus { stimulus_id, media: Media::Image, file, emotion: String::new(), arms: Vec::new() }
     }
 }
 
@@ -121,6 +123,7 @@ fn study_stimulus(row: sqlx::sqlite::SqliteRow) -> Result<StudyStimulus, DbError
         media: stored(Media::parse(media), "media kind", media)?,
         file: row.get(2),
         emotion: row.get(3),
+        arms: row.get::<String, _>(4).split_whitespace().map(str::to_string).collect(),
     })
 }
 
@@ -143,12 +146,13 @@ impl Db {
             .await?
             .get(0);
         for s in stimuli {
-            sqlx::query("INSERT INTO stimuli (study_id, stimulus_id, media, file, emotion) VALUES (?, ?, ?, ?, ?)")
+            sqlx::query("INSERT INTO stimuli (study_id, stimulus_id, media, file, emotion, arms) VALUES (?, ?, ?, ?, ?, ?)")
                 .bind(id)
                 .bind(s.stimulus_id.as_str())
                 .bind(s.media.as_str())
                 .bind(&s.file)
                 .bind(&s.emotion)
+                .bind(s.arms.join(" "))
                 .execute(&mut *tx)
                 .await?;
         }
@@ -187,7 +191,7 @@ impl Db {
     }
 
     pub async fn study_stimuli(&self, study_id: i64) -> Result<Vec<StudyStimulus>, DbError> {
-        let rows = sqlx::query("SELECT stimulus_id, media, file, emotion FROM stimuli WHERE study_id = ? ORDER BY stimulus_id")
+        let rows = sqlx::query("SELECT stimulus_id, media, file, emotion, arms FROM stimuli WHERE study_id = ? ORDER BY stimulus_id")
             .bind(study_id)
             .fetch_all(&self.reader)
             .await?;
@@ -258,10 +262,14 @@ pub fn set_stimuli(set_dir: &std::path::Path, design: &crate::study::StudyDesign
         if !set_dir.join(relative).is_file() {
             return Err(DbError::NotFound(format!("{}: the file of stimulus {} is missing: {}", manifest.display(), row.stimulus_id, row.file)));
         }
-        stimuli.push(StudyStimulus { stimulus_id: id, media: row.media, file: row.file, emotion: row.emotion });
+        let arms = design.arms.iter().filter(|a| a.admits(row.media, row.intensity)).map(|a| a.name.clone()).collect();
+        stimuli.push(StudyStimulus { stimulus_id: id, media: row.media, file: row.file, emotion: row.emotion, arms });
     }
     if stimuli.is_empty() {
         return Err(DbError::Invalid(format!("{}: no stimuli of the media this study asks for", manifest.display())));
+    }
+    if let Some(empty) = design.arms.iter().find(|a| !stimuli.iter().any(|s| s.arms.contains(&a.name))) {
+        return Err(DbError::Invalid(format!("{}: arm \"{}\" admits none of the study's stimuli (check its media and intensities)", manifest.display(), empty.name)));
     }
     Ok(stimuli)
 }

@@ -232,7 +232,7 @@ mod tests {
     }
 
     fn start(study: i64, design: &StudyDesign, worker: &str) -> Request {
-        Request::Start(StartRequest::new(study, design, worker, "{}"))
+        Request::Start(StartRequest::new(study, design, &design.sources[0], worker, "{}"))
     }
 
     fn started(outcome: &Result<Written, DbError>) -> Option<&Started> {
@@ -418,7 +418,7 @@ mod tests {
     async fn the_study_of_a_token_is_remembered() {
         let dir = tempfile::tempdir().expect("temp dir");
         let (db, id, design) = study(&dir, "", 2).await;
-        let Started::New(token) = db.start_participation(id, &design, "w1", "{}").await.expect("start") else { panic!("not new") };
+        let Started::New(token) = db.start_participation(id, &design, &design.sources[0], "w1", "{}").await.expect("start") else { panic!("not new") };
         assert_eq!(db.participation_study(&token).await.expect("lookup"), Some(id));
         assert_eq!(db.studies_of_tokens.lock().expect("cache").get(&super::super::token_sha256(&token)), Some(id));
         assert_eq!(db.participation_study(&"0".repeat(32)).await.expect("lookup"), None);

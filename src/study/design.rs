@@ -20,14 +20,22 @@
 //! [[rating.item]]  measure = "q1"; prompt = "Does the motion feel right?"; min = 0; max = 5
 //! [attention]  max_failures = 2; checks = [{ instruction = "…", measure = "emotion", value = "surprise" }]
 //! [recruitment] platform = "prolific"; completion_code = "C0DE"
+//! [[recruitment.sources]] group = "amt"; platform = "mturk"; completion_code = "…"   # more ways in
+//! [[arm]] name = "video-100"; media = "video"; intensities = [100]   # between-subject arms
 //! ```
+//!
+//! Sources (`study::recruitment`): each further platform recruits into the same study and is
+//! exported under its own `group`. Arms (`study::arm`): each participant joins one arm and
+//! sees only its stimuli (the study's own `media`/`intensities` filter applies first).
 //!
 //! [`StudyDesign::from_toml`] validates everything (task options, rating ranges against the
 //! analysis's scales, attention-check answers, platform settings) and names the field at fault.
 
 use serde::Deserialize;
 
+use super::arm::{Arm, check_arms};
 use super::measure::{Measure, Scale};
+pub use super::recruitment::{Platform, Recruitment, Source};
 
 /// A design that cannot be used; `field` says where.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -37,7 +45,7 @@ pub struct DesignError {
     pub message: String,
 }
 
-fn fail(field: impl Into<String>, message: impl Into<String>) -> DesignError {
+pub(crate) fn fail(field: impl Into<String>, message: impl Into<String>) -> DesignError {
     DesignError { field: field.into(), message: message.into() }
 }
 
@@ -80,52 +88,6 @@ impl MediaFilter {
             MediaFilter::All => true,
             MediaFilter::Image => media == Media::Image,
             MediaFilter::Video => media == Media::Video,
-        }
-    }
-}
-
-/// Where participants come from, which decides the entry parameters and the completion step.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Default)]
-#[serde(rename_all = "snake_case")]
-pub enum Platform {
-    /// Lab or link: no worker id, one is made up.
-    #[default]
-    Local,
-    /// `?PROLIFIC_PID=…&STUDY_ID=…&SESSION_ID=…`; redirect to Prolific with `cc=` code.
-    Prolific,
-    /// `?workerId=…&assignmentId=…&hitId=…&turkSubmitTo=…`; externalSubmit form.
-    Mturk,
-    /// `?id=…` (survey code); redirect to the credit-granting URL.
-    Sona,
-}
-
-impl Platform {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Platform::Local => "local",
-            Platform::Prolific => "prolific",
-            Platform::Mturk => "mturk",
-            Platform::Sona => "sona",
-        }
-    }
-
-    /// The query parameter that identifies the worker, if the platform has one.
-    pub fn worker_param(self) -> Option<&'static str> {
-        match self {
-            Platform::Local => None,
-            Platform::Prolific => Some("PROLIFIC_PID"),
-            Platform::Mturk => Some("workerId"),
-            Platform::Sona => Some("id"),
-        }
-    }
-
-    /// Every entry parameter kept with the participation (for the completion step and audits).
-    pub fn entry_params(self) -> &'static [&'static str] {
-        match self {
-            Platform::Local => &[],
-            Platform::Prolific => &["PROLIFIC_PID", "STUDY_ID", "SESSION_ID"],
-            Platform::Mturk => &["workerId", "assignmentId", "hitId", "turkSubmitTo"],
-            Platform::Sona => &["id"],
         }
     }
 }
@@ -225,25 +187,6 @@ pub struct RatingOptions {
     pub descriptions: std::collections::BTreeMap<String, String>,
 }
 
-#[derive(Debug, Clone, PartialEq, Deserialize, Default)]
-#[serde(deny_unknown_fields)]
-pub struct Recruitment {
-    #[serde(default)]
-    pub platform: Platform,
-    /// Shown at the end and sent to Prolific (`cc=`) or MTurk.
-    #[serde(default)]
-    pub completion_code: String,
-    /// Prolific code for participants screened out by the attention policy.
-    #[serde(default)]
-    pub screened_out_code: String,
-    /// SONA credit URL; `{id}` is replaced by the participant's survey code.
-    #[serde(default)]
-    pub sona_credit_url: String,
-    /// Submit MTurk assignments to the sandbox.
-    #[serde(default)]
-    pub mturk_sandbox: bool,
-}
-
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawDesign {
@@ -280,6 +223,8 @@ struct RawDesign {
     attention: AttentionPolicy,
     #[serde(default)]
     recruitment: Recruitment,
+    #[serde(default)]
+    arm: Vec<Arm>,
 }
 
 fn default_group() -> String {
@@ -319,6 +264,10 @@ pub struct StudyDesign {
     pub rating: RatingOptions,
     pub attention: AttentionPolicy,
     pub recruitment: Recruitment,
+    /// Every way in, the study's own `[recruitment]` platform (under `group`) first.
+    pub sources: Vec<Source>,
+    /// Between-subject arms (empty: every participant draws from all the study's stimuli).
+    pub arms: Vec<Arm>,
     /// The Likert items asked after the main question (emotion: believability; rating: items).
     pub items: Vec<LikertItem>,
 }
@@ -366,6 +315,17 @@ impl StudyDesign {
     pub fn consent_sha256(&self) -> String {
         use sha2::Digest;
         hex::encode(sha2::Sha256::digest(self.consent.as_bytes()))
+    }
+
+    /// The source an entry link belongs to, by the worker parameter it carries
+    /// ([`super::recruitment::source_for`]).
+    pub fn source_for(&self, has_param: impl Fn(&str) -> bool) -> &Source {
+        super::recruitment::source_for(&self.sources, has_param)
+    }
+
+    /// The source of a participation that stored `platform`.
+    pub fn source_of(&self, platform: &str) -> &Source {
+        super::recruitment::source_of(&self.sources, platform)
     }
 
     /// True when participants get a balanced share of the stimuli rather than all of them.
@@ -436,7 +396,8 @@ impl RawDesign {
         check_intensities(&self.intensities)?;
         check_items(&items)?;
         check_attention(self.task, &self.attention, &items)?;
-        check_recruitment(&self.recruitment)?;
+        let sources = self.recruitment.checked_sources(&self.group)?;
+        check_arms(&self.arm)?;
         Ok(StudyDesign {
             slug: self.slug,
             title: self.title,
@@ -458,12 +419,14 @@ impl RawDesign {
             rating: self.rating,
             attention: self.attention,
             recruitment: self.recruitment,
+            sources,
+            arms: self.arm,
             items,
         })
     }
 }
 
-fn check_intensities(intensities: &[u32]) -> Result<(), DesignError> {
+pub(crate) fn check_intensities(intensities: &[u32]) -> Result<(), DesignError> {
     for (i, &percent) in intensities.iter().enumerate() {
         if !(1..=100).contains(&percent) {
             return Err(fail("intensities", format!("{percent} is not a peak intensity in whole percent (1-100)")));
@@ -507,18 +470,6 @@ fn check_attention(task: TaskKind, policy: &AttentionPolicy, items: &[LikertItem
         }
     }
     Ok(())
-}
-
-fn check_recruitment(r: &Recruitment) -> Result<(), DesignError> {
-    match r.platform {
-        Platform::Prolific | Platform::Mturk if r.completion_code.trim().is_empty() => {
-            Err(fail("recruitment.completion_code", format!("{} needs a completion code", r.platform.as_str())))
-        }
-        Platform::Sona if !(r.sona_credit_url.starts_with("https://") && r.sona_credit_url.contains("{id}")) => {
-            Err(fail("recruitment.sona_credit_url", "SONA needs an https:// credit URL containing {id}"))
-        }
-        _ => Ok(()),
-    }
 }
 
 #[cfg(test)]
@@ -567,6 +518,39 @@ debrief = "Thanks."
         assert_eq!((d.items[0].min, d.items[0].max), (0, 5));
         let e = StudyDesign::from_toml(&format!("{BASE}[emotion]\nbelievability = true\nbelievability_range = [0, 7]\n")).unwrap_err();
         assert_eq!(e.field, "rating.item[1] (believability)", "{e}");
+    }
+
+    #[test]
+    fn sources_bring_their_own_groups_and_entry_parameters() {
+        let text = format!("{BASE}group = \"local\"\n[recruitment]\nplatform = \"local\"\n[[recruitment.sources]]\ngroup = \"amt\"\nplatform = \"mturk\"\ncompletion_code = \"C\"\n");
+        let d = StudyDesign::from_toml(&text).unwrap();
+        let groups: Vec<(&str, Platform)> = d.sources.iter().map(|s| (s.group.as_str(), s.platform)).collect();
+        assert_eq!(groups, vec![("local", Platform::Local), ("amt", Platform::Mturk)]);
+        assert_eq!(d.source_for(|p| p == "workerId").group, "amt");
+        assert_eq!(d.source_for(|_| false).group, "local");
+        assert_eq!(d.source_for(|p| p == "PROLIFIC_PID").group, "local", "a platform the study does not use");
+        assert_eq!(d.source_of("mturk").completion_code, "C");
+        assert_eq!(d.source_of("local").group, "local");
+        let bad = [
+            ("[recruitment]\n[[recruitment.sources]]\ngroup = \"amt\"\nplatform = \"mturk\"\n", "recruitment.sources[1].completion_code"),
+            ("[recruitment]\n[[recruitment.sources]]\ngroup = \"x\"\nplatform = \"local\"\n", "recruitment.sources[1].platform"),
+            ("[recruitment]\n[[recruitment.sources]]\ngroup = \"participants\"\nplatform = \"sona\"\nsona_credit_url = \"https://x/{id}\"\n", "recruitment.sources[1]"),
+            ("[recruitment]\nplatform = \"sona\"\nsona_credit_url = \"https://x/{id}\"\n[[recruitment.sources]]\ngroup = \"s2\"\nplatform = \"sona\"\nsona_credit_url = \"https://x/{id}\"\n", "recruitment.sources[1]"),
+            ("[recruitment]\n[[recruitment.sources]]\ngroup = \"a,b\"\nplatform = \"mturk\"\ncompletion_code = \"C\"\n", "recruitment.sources[1].group"),
+        ];
+        for (extra, field) in bad {
+            let e = StudyDesign::from_toml(&format!("{BASE}{extra}")).unwrap_err();
+            assert_eq!(e.field, field, "{e}");
+        }
+    }
+
+    #[test]
+    fn arms_are_read_and_checked() {
+        let text = format!("{BASE}[[arm]]\nname = \"images-50\"\nmedia = \"image\"\nintensities = [50]\n[[arm]]\nname = \"videos-100\"\nmedia = \"video\"\nintensities = [100]\n");
+        let d = StudyDesign::from_toml(&text).unwrap();
+        assert_eq!(d.arms.iter().map(|a| a.name.as_str()).collect::<Vec<_>>(), ["images-50", "videos-100"]);
+        let e = StudyDesign::from_toml(&format!("{BASE}[[arm]]\nname = \"a\"\nintensities = [0]\n")).unwrap_err();
+        assert_eq!(e.field, "arm[1].intensities", "{e}");
     }
 
     #[test]

@@ -7,11 +7,13 @@
 //! judgements of those measures (the long response format, design.md §3). The web layer (`crate::web`) and the database (`crate::db`) call
 //! these; nothing here knows about HTTP or SQL.
 
+pub mod arm;
 pub mod assign;
 pub mod design;
 pub mod measure;
 pub mod session;
 pub mod task;
+pub mod recruitment;
 pub mod templates;
 pub mod worker;
 

@@ -293,6 +293,8 @@ async fn study_page(State(app): State<AppState>, Path(slug): Path<String>, admin
             "study": row,
             "task": design.task.as_str(),
             "target": design.ratings_per_stimulus,
+            "sources": design.sources.iter().map(|s| json!({ "group": s.group, "platform": s.platform.as_str(), "params": s.platform.entry_params() })).collect::<Vec<_>>(),
+            "arms": design.arms.iter().map(|a| a.name.as_str()).collect::<Vec<_>>(),
             "progress": progress,
             "participants": participants,
             "counts": counts,

@@ -59,7 +59,7 @@ fn page<'a>(study: &'a LoadedStudy, title: &'a str) -> serde_json::Value {
 /// The confirm page: nothing is created by a GET, so link previews cannot use up a link.
 async fn landing(State(app): State<AppState>, Path(slug): Path<String>, Query(query): Query<HashMap<String, String>>) -> Result<Response, WebError> {
     let study = app.study(&slug).await?;
-    let platform = study.design.recruitment.platform;
+    let platform = study.design.source_for(|name| query.contains_key(name)).platform;
     let params = entry_params(platform, &query)?;
     let preview = platform == Platform::Mturk && query.get("assignmentId").is_some_and(|a| a == "ASSIGNMENT_ID_NOT_AVAILABLE");
     let open = is_open(&app, &slug).await?;
@@ -132,8 +132,10 @@ async fn start(State(app): State<AppState>, Path(slug): Path<String>, address: C
     if !is_open(&app, &slug).await? {
         return Err(WebError::Conflict("this study is not open at the moment".into()));
     }
-    let platform = study.design.recruitment.platform;
-    let params = entry_params(platform, &form.into_iter().collect())?;
+    let form: HashMap<String, String> = form.into_iter().collect();
+    let source = study.design.source_for(|name| form.contains_key(name));
+    let platform = source.platform;
+    let params = entry_params(platform, &form)?;
     if platform == Platform::Local
         && let Some(token) = held_token(&jar, &slug)
         && app.db.participation(token).await?.is_some_and(|p| p.study_id == study.row.id)
@@ -145,7 +147,7 @@ async fn start(State(app): State<AppState>, Path(slug): Path<String>, address: C
         None => format!("local-{}", secret_token()),
     };
     let params_json = serde_json::to_string(&params.iter().cloned().collect::<HashMap<_, _>>()).unwrap_or_default();
-    let token = match app.db.start_participation(study.row.id, &study.design, &worker, &params_json).await? {
+    let token = match app.db.start_participation(study.row.id, &study.design, source, &worker, &params_json).await? {
         Started::New(token) => token,
         // The participation's token goes only to the browser that holds it already.
         Started::Existing(existing) => match held_token(&jar, &slug) {
@@ -462,7 +464,7 @@ async fn media(State(app): State<AppState>, token: ParticipationToken, TrialPosi
 /// reachable once the last save is stored), or the screen-out, withdrawal or expiry message.
 async fn done(State(app): State<AppState>, token: ParticipationToken) -> Result<Response, WebError> {
     let (p, study) = participation(&app, &token).await?;
-    let r = &study.design.recruitment;
+    let r = study.design.source_of(&p.platform);
     let params: HashMap<String, String> = serde_json::from_str(&p.platform_params).unwrap_or_default();
     let (heading, message, code) = match p.state {
         SessionState::Completed => ("Thank you!", study.design.debrief.clone(), r.completion_code.clone()),

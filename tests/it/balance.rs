@@ -23,7 +23,7 @@ debrief = "thanks"
 
 /// Runs one participant: completes all trials, or reserves and walks away.
 async fn participant(db: Db, design: StudyDesign, study: i64, worker: String, abandons: bool) -> Option<bool> {
-    let token = match db.start_participation(study, &design, &worker, "{}").await.unwrap() {
+    let token = match db.start_participation(study, &design, &design.sources[0], &worker, "{}").await.unwrap() {
         Started::New(token) => token,
         Started::Existing(_) => unreachable!("workers are unique"),
         Started::Full => return None,

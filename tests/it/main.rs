@@ -13,4 +13,5 @@ mod server;
 mod stimuli;
 mod study;
 mod studio;
+mod templates;
 mod tidy;
