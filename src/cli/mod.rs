@@ -170,8 +170,8 @@ enum Command {
     #[command(subcommand)]
     Admin(web::AdminCommand),
 
-    /// Export a study's responses (long CSV for `analyze`, wide CSV, JSON) or its codebook.
-    #[command(after_help = "Examples:\n  facslab export --study exp3 --db lab.db -o responses.csv\n  facslab export --study exp3 --format wide.csv --all --db lab.db -o wide.csv")]
+    /// Export a study's responses (long CSV for `analyze`, wide CSV, JSON), its codebook, or a Psych-DS dataset.
+    #[command(after_help = "Examples:\n  facslab export --study exp3 --db lab.db -o responses.csv\n  facslab export --study exp3 --format wide.csv --all --db lab.db -o wide.csv\n  facslab export --study exp3 --format psych-ds --db lab.db -o exp3-dataset")]
     Export(web::ExportArgs),
 
     /// The validation report of a study, straight from the study database.

@@ -149,7 +149,8 @@ pub struct ExportArgs {
     /// The study's slug.
     #[arg(long)]
     pub study: String,
-    /// responses.csv (long, the `analyze` input), wide.csv, responses.json or codebook.csv.
+    /// responses.csv (long, the `analyze` input), wide.csv, responses.json, codebook.csv, or
+    /// psych-ds (a Psych-DS dataset directory: data files, their descriptions, the ground truth).
     #[arg(long, default_value = "responses.csv")]
     pub format: String,
     /// Include every participation except withdrawn ones (default: completed, not excluded).
@@ -157,7 +158,7 @@ pub struct ExportArgs {
     pub all: bool,
     #[arg(long, default_value = "facslab.db")]
     pub db: PathBuf,
-    /// Output file.
+    /// Output file (psych-ds: a directory that does not exist yet).
     #[arg(short, long)]
     pub output: PathBuf,
 }
@@ -267,7 +268,7 @@ async fn export_text(db: &Db, slug: &str, file: &str, scope: Scope) -> anyhow::R
     if file == "codebook.csv" {
         return Ok(crate::db::export::codebook(&design));
     }
-    let format = Format::parse(file).with_context(|| format!("unknown format \"{file}\" (responses.csv, wide.csv, responses.json, codebook.csv)"))?;
+    let format = Format::parse(file).with_context(|| format!("unknown format \"{file}\" (responses.csv, wide.csv, responses.json, codebook.csv, psych-ds)"))?;
     let stimuli = db.study_stimuli(row.id).await?.into_iter().map(|s| s.stimulus_id).collect();
     let mut rx = db.export(row.id, &design, stimuli, format, scope);
     let mut text = String::new();
@@ -280,7 +281,14 @@ async fn export_text(db: &Db, slug: &str, file: &str, scope: Scope) -> anyhow::R
 pub fn export_command(args: ExportArgs) -> anyhow::Result<()> {
     runtime()?.block_on(async {
         let db = open(&args.db).await?;
-        let text = export_text(&db, &args.study, &args.format, if args.all { Scope::All } else { Scope::Completed }).await?;
+        let scope = if args.all { Scope::All } else { Scope::Completed };
+        if args.format == "psych-ds" {
+            let row = db.study_by_slug(&args.study).await?.with_context(|| format!("no study \"{}\" in this database", args.study))?;
+            db.psych_ds(row.id, &row.design()?, Path::new(&row.set_dir), scope, &args.output).await?;
+            println!("wrote the Psych-DS dataset {}", args.output.display());
+            return Ok(());
+        }
+        let text = export_text(&db, &args.study, &args.format, scope).await?;
         crate::stimuli::build::write_atomic(&args.output, text.as_bytes())?;
         println!("wrote {}", args.output.display());
         Ok(())

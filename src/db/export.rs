@@ -139,7 +139,7 @@ impl ParticipantRecord {
 }
 
 /// The scope's condition on participations.
-fn scope_sql(scope: Scope) -> &'static str {
+pub(super) fn scope_sql(scope: Scope) -> &'static str {
     match scope {
         Scope::Completed => "p.state = 'completed' AND p.excluded = 0",
         Scope::All => "p.state <> 'withdrawn'",
@@ -258,7 +258,7 @@ impl Db {
         Ok(())
     }
 
-    async fn demographics_of(&self, study_id: i64) -> Result<HashMap<i64, Demographics>, DbError> {
+    pub(super) async fn demographics_of(&self, study_id: i64) -> Result<HashMap<i64, Demographics>, DbError> {
         let rows = sqlx::query("SELECT d.participant_id, d.age, d.gender, d.ethnicity, d.education FROM demographics d JOIN participants p ON p.id = d.participant_id WHERE p.study_id = ?")
             .bind(study_id)
             .fetch_all(&self.reader)
@@ -312,8 +312,16 @@ fn emit(record: &ParticipantRecord, format: Format, columns: &[(String, String)]
 /// The codebook of a study's exports: every column and, for categorical measures, its levels.
 pub fn codebook(design: &StudyDesign) -> String {
     let mut out = String::from("file,column,description,levels\n");
+    codebook_rows(design).iter().for_each(|r| crate::tabular::record(&mut out, r));
+    out
+}
+
+/// The codebook's rows, `[file, column, description, levels]` (file empty on the rows that
+/// describe a measure), read by [`codebook`] and the Psych-DS export.
+pub fn codebook_rows(design: &StudyDesign) -> Vec<[String; 4]> {
+    let mut out = Vec::new();
     let mut row = |file: &str, column: &str, description: &str, levels: &str| {
-        crate::tabular::record(&mut out, [file, column, description, levels]);
+        out.push([file, column, description, levels].map(String::from));
     };
     let long = "responses.csv";
     let measures: Vec<Measure> = design.measures().into_iter().chain(Demographic::ALL.map(Measure::Demographic)).collect();

@@ -12,6 +12,7 @@
 
 pub mod admin;
 pub mod export;
+pub mod psych_ds;
 pub mod participants;
 pub mod password;
 mod recent;

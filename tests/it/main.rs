@@ -8,6 +8,7 @@ mod cli;
 mod e2e;
 mod edge;
 mod golden;
+mod psych_ds;
 mod render;
 mod server;
 mod stimuli;
