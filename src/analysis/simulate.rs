@@ -6,6 +6,8 @@
 //! - `exp3`: EmFACS emotions × {100 %, 50 %} × {video, image} × identities; each rater sees one
 //!   media × intensity condition, chooses an emotion and rates believability (1–5, facslab's
 //!   default scale).
+//! - `exp4`: the Exp. 3 task on the videos at 100 % only (HapFACS Exp. 4 showed ten speaking
+//!   videos, one per emotion: use `identities = 1`); every rater sees every video.
 //!
 //! Answer model: a shown AU (or emotion) is given correctly with probability `accuracy` (for
 //! emotions at 50 % intensity, `accuracy − 0.1`); otherwise a "similar" one (HapFACS Table 2
@@ -26,6 +28,7 @@ pub enum Design {
     Exp1,
     Exp2,
     Exp3,
+    Exp4,
 }
 
 /// Where wrong answers go.
@@ -150,7 +153,7 @@ pub fn simulate(o: &SimOptions) -> (String, String) {
     let mut sim = Simulation { o, rng: SplitMix64(o.seed), manifest: String::from(MANIFEST_HEADER), responses: String::from(RESPONSES_HEADER) };
     match o.design {
         Design::Exp1 | Design::Exp2 => sim.coders(),
-        Design::Exp3 => sim.raters(),
+        Design::Exp3 | Design::Exp4 => sim.raters(),
     }
     (sim.manifest, sim.responses)
 }
@@ -237,30 +240,33 @@ impl Simulation<'_> {
         terms.join("+")
     }
 
-    /// Exp. 3: the stimuli of each media × intensity condition, each with its believability offset.
+    /// Exp. 3–4: the stimuli of each media × intensity condition (Exp. 4: videos at 100 %
+    /// only), each with its believability offset.
     fn conditions(&mut self) -> Vec<(bool, f64, Vec<(SimStimulus, f64)>)> {
         let emotions = EmotionTable::built_in();
+        let cells: &[(bool, f64)] = match self.o.design {
+            Design::Exp4 => &[(true, 1.0)],
+            _ => &[(true, 1.0), (true, 0.5), (false, 1.0), (false, 0.5)],
+        };
         let mut conditions = Vec::new();
         let mut n = 0;
-        for video in [true, false] {
-            for intensity in [1.0, 0.5] {
-                let mut stimuli = Vec::new();
-                for e in emotions.iter() {
-                    for _ in 0..self.o.identities.max(1) {
-                        let expression = if intensity == 1.0 { e.expression.to_string() } else { e.expression.scaled(intensity).to_string() };
-                        let s = SimStimulus { id: self.rng.id(), expression, emotion: Some(e.label.clone()) };
-                        manifest_row(&mut self.manifest, &s, video, IDENTITIES[n % IDENTITIES.len()], intensity, self.o.seed);
-                        n += 1;
-                        stimuli.push((s, 0.5 * self.rng.normal()));
-                    }
+        for &(video, intensity) in cells {
+            let mut stimuli = Vec::new();
+            for e in emotions.iter() {
+                for _ in 0..self.o.identities.max(1) {
+                    let expression = if intensity == 1.0 { e.expression.to_string() } else { e.expression.scaled(intensity).to_string() };
+                    let s = SimStimulus { id: self.rng.id(), expression, emotion: Some(e.label.clone()) };
+                    manifest_row(&mut self.manifest, &s, video, IDENTITIES[n % IDENTITIES.len()], intensity, self.o.seed);
+                    n += 1;
+                    stimuli.push((s, 0.5 * self.rng.normal()));
                 }
-                conditions.push((video, intensity, stimuli));
             }
+            conditions.push((video, intensity, stimuli));
         }
         conditions
     }
 
-    /// Exp. 3: each rater sees one condition, chooses an emotion and rates believability.
+    /// Exp. 3–4: each rater sees one condition, chooses an emotion and rates believability.
     fn raters(&mut self) {
         let groups: Vec<String> = if self.o.groups.is_empty() { vec!["all".into()] } else { self.o.groups.clone() };
         let conditions = self.conditions();
@@ -315,7 +321,7 @@ mod tests {
 
     #[test]
     fn same_seed_same_bytes_and_files_read_back() {
-        for design in [Design::Exp1, Design::Exp2, Design::Exp3] {
+        for design in [Design::Exp1, Design::Exp2, Design::Exp3, Design::Exp4] {
             let o = SimOptions { design, seed: 7, participants: 4, missing: 0.05, ..SimOptions::default() };
             let (m1, r1) = simulate(&o);
             let (m2, r2) = simulate(&o);
@@ -329,6 +335,7 @@ mod tests {
                 Design::Exp1 => 49,
                 Design::Exp2 => 54,
                 Design::Exp3 => 80,
+                Design::Exp4 => 20,
             };
             assert_eq!(manifest.len(), expected);
             assert!(responses.rows > 0);

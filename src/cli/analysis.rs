@@ -42,6 +42,8 @@ pub enum DesignArg {
     Exp2,
     /// Emotions, lay raters, images and videos at 50/100 % (Exp. 3).
     Exp3,
+    /// Emotions, lay raters, the videos at 100 % only (Exp. 4; one per emotion with --identities 1).
+    Exp4,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -65,10 +67,10 @@ pub struct SimulateArgs {
     /// Coders (exp1, exp2).
     #[arg(long, default_value_t = 3)]
     pub coders: usize,
-    /// Raters per media × intensity condition (exp3).
+    /// Raters per media × intensity condition (exp3, exp4).
     #[arg(long, default_value_t = 20)]
     pub participants: usize,
-    /// Identities per emotion, intensity and media (exp3).
+    /// Identities per emotion, intensity and media (exp3, exp4).
     #[arg(long, default_value_t = 2)]
     pub identities: usize,
     /// Probability of a correct answer per shown AU or emotion.
@@ -80,7 +82,7 @@ pub struct SimulateArgs {
     /// Where wrong answers go.
     #[arg(long, value_enum, default_value = "similar")]
     pub confusion: ConfusionArg,
-    /// Participant groups (comma-separated), assigned in turn (exp3).
+    /// Participant groups (comma-separated), assigned in turn (exp3, exp4).
     #[arg(long, value_delimiter = ',', default_value = "local,amt")]
     pub groups: Vec<String>,
     /// Probability that a judgement is missing.
@@ -109,6 +111,7 @@ pub fn simulate(args: SimulateArgs) -> anyhow::Result<()> {
             DesignArg::Exp1 => Design::Exp1,
             DesignArg::Exp2 => Design::Exp2,
             DesignArg::Exp3 => Design::Exp3,
+            DesignArg::Exp4 => Design::Exp4,
         },
         seed: args.seed,
         coders: args.coders,

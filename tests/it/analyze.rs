@@ -1,5 +1,5 @@
 //! `facslab simulate` then `facslab analyze`: the report's files, its structure (snapshots shaped
-//! like the seed's Tables 1–4 and 6–11), determinism, and bad input.
+//! like the seed's Tables 1–4 and 6–14), determinism, and bad input.
 
 use std::path::Path;
 
@@ -105,6 +105,28 @@ fn exp3_report_has_tables_6_to_11() {
     assert_eq!(rating["anova"].as_array().unwrap().len(), 4);
     let terms: Vec<&str> = rating["anova"][0]["type_ii"]["rows"].as_array().unwrap().iter().map(|r| r["term"].as_str().unwrap()).collect();
     assert_eq!(terms, ["emotion", "intensity", "emotion:intensity", "residual"], "terms named after the factors");
+}
+
+#[test]
+fn exp4_report_has_tables_12_to_14() {
+    let dir = tempfile::tempdir().unwrap();
+    // HapFACS Exp. 4: ten videos at 100 %, one per emotion, 20 local and 40 AMT participants.
+    let report = simulate_and_analyze(dir.path(), "exp4", &["--participants", "60", "--identities", "1"]);
+    let rating = &report["rating"];
+    let conditions = rating["conditions"].as_array().unwrap();
+    assert_eq!(conditions.iter().map(|c| c["key"].as_str().unwrap()).collect::<Vec<_>>(), ["video 100%"]);
+    let c = &conditions[0];
+    let s = &c["scales"][0];
+    // Table 13's alpha (participants as items, the ten videos as cases) has a value with one
+    // video per emotion; the per-emotion alpha cannot (one case each).
+    assert!(s["alpha"].is_number(), "{s}");
+    insta::assert_json_snapshot!("exp4_tables_12_to_14", round(&json!({
+        "table12": pick(c, &["key", "confusion", "average_rate"]),
+        "table13": {"cells": s["cells"], "overall": s["overall"], "alpha": s["alpha"]},
+        "table14": rating["table14"],
+    })));
+    // Local and AMT raters compared per emotion, as the paper did.
+    assert!(rating["group_tests"].as_array().unwrap().iter().any(|t| t["student"]["df"].is_number()));
 }
 
 #[test]
