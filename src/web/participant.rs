@@ -63,7 +63,7 @@ async fn landing(State(app): State<AppState>, Path(slug): Path<String>, Query(qu
     let params = entry_params(platform, &query)?;
     let preview = platform == Platform::Mturk && query.get("assignmentId").is_some_and(|a| a == "ASSIGNMENT_ID_NOT_AVAILABLE");
     let open = is_open(&app, &slug).await?;
-    let minutes = (study.design.trials_per_participant.max(study.stimuli.len().min(60)) as f64 * 0.25).ceil().max(2.0);
+    let minutes = (trials_shown(&study).min(60) as f64 * 0.25).ceil().max(2.0);
     app.render(
         "landing.html",
         &merge(
@@ -71,6 +71,17 @@ async fn landing(State(app): State<AppState>, Path(slug): Path<String>, Query(qu
             json!({ "title": study.design.title, "slug": slug, "params": params, "preview": preview, "closed": !open, "full": false, "minutes": minutes }),
         ),
     )
+}
+
+/// How many main trials a participant gets at most: the design's share, or every stimulus of
+/// the largest arm (of the study without arms).
+fn trials_shown(study: &LoadedStudy) -> usize {
+    let arm_size = |name: &str| study.stimuli.values().filter(|s| s.arms.iter().any(|a| a == name)).count();
+    let all = match study.design.arms.is_empty() {
+        true => study.stimuli.len(),
+        false => study.design.arms.iter().map(|a| arm_size(&a.name)).max().unwrap_or(0),
+    };
+    if study.design.shares_stimuli() { study.design.trials_per_participant.min(all) } else { all }
 }
 
 /// The platform parameters a study keeps, checked; the worker id must be there for a platform,

@@ -12,10 +12,13 @@ fn shipped(path: &str) -> String {
     std::fs::read_to_string(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(path)).unwrap()
 }
 
-/// The set specification `stimuli/sets/NAME.toml` with small frames and few video frames.
-fn reduced_set(name: &str) -> String {
+/// The set specification `stimuli/sets/NAME.toml` with small frames and few video frames,
+/// after checking that the shipped one renders at the paper's `size` at 30 fps.
+fn reduced_set(name: &str, size: [u32; 2]) -> String {
     let spec = shipped(&format!("stimuli/sets/{name}.toml"));
-    let size = spec.lines().find(|l| l.starts_with("size = ")).expect("a size line").to_string();
+    let line = spec.lines().find(|l| l.starts_with("size = ")).expect("a size line").to_string();
+    assert_eq!(line, format!("size = [{}, {}]", size[0], size[1]), "{name}: the paper's frame size");
+    let size = line;
     let reduced = spec.replace(&size, "size = [64, 64]").replace("fps = 30", "fps = 5");
     assert!(reduced.contains("fps = 5"), "{name}.toml: no fps line to reduce");
     reduced
@@ -71,11 +74,15 @@ const MTURK: [(&str, &str); 4] = [("workerId", "A1B2C3D4E5F6G7"), ("assignmentId
 
 #[tokio::test(flavor = "multi_thread")]
 async fn templates_exp3_and_exp4_reproduce_the_papers_groups_and_arms() {
-    let lab = Lab::with_set(&reduced_set("exp3"));
+    let lab = Lab::with_set(&reduced_set("exp3", [485, 485]));
     lab.study("exp3", &shipped("studies/exp3-emotions.toml"));
     lab.study("exp4", &shipped("studies/exp4-emotions-video.toml"));
     let (server, http, facts) = (lab.serve(), client(), facts(&lab));
     let answer = [("emotion", "surprise"), ("believability", "0")];
+
+    // The landing page's time is for one arm's ten faces, not the set's forty.
+    let landing = http.get(server.url("/s/exp3")).send().await.unwrap().text().await.unwrap();
+    assert!(landing.contains("It takes about 3 minutes"), "{landing}");
 
     // Exp. 3: a local participant (plain link) and an MTurk worker (the HIT's link), each in
     // one of the four stimulus groups: ten stimuli of one media at one intensity, one per emotion.
@@ -110,7 +117,7 @@ async fn templates_exp3_and_exp4_reproduce_the_papers_groups_and_arms() {
 
 #[tokio::test(flavor = "multi_thread")]
 async fn templates_exp2_shows_every_coder_the_54_combinations_as_video_and_still() {
-    let lab = Lab::with_set(&reduced_set("exp2"));
+    let lab = Lab::with_set(&reduced_set("exp2", [485, 480]));
     lab.study("exp2", &shipped("studies/exp2-coders.toml"));
     let (server, http) = (lab.serve(), client());
     let coder = start(&http, &server, "exp2", &[]).await;
