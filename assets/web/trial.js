@@ -88,6 +88,8 @@
         document.querySelectorAll('.speed').forEach(function (o) { o.setAttribute('aria-pressed', String(o === b)); });
       });
     });
+    // Keys only where the coder's controls are (an emotion trial keeps its one Play again button).
+    if (!document.querySelector('.player')) return;
     document.addEventListener('keydown', function (event) {
       const t = event.target;
       if (event.ctrlKey || event.metaKey || event.altKey || t.tagName === 'SELECT' || t.tagName === 'TEXTAREA' || (t.tagName === 'INPUT' && t.type !== 'checkbox' && t.type !== 'radio')) return;

@@ -144,6 +144,17 @@ mod tests {
     }
 
     #[test]
+    fn only_au_coding_designs_show_entries_together() {
+        let design = |task: &str, extra: &str| {
+            let text = format!("slug = \"t\"\ntitle = \"T\"\ntask = \"{task}\"\nstimuli = \"s\"\nconsent = \"c\"\ninstructions = \"i\"\ndebrief = \"d\"\n{extra}");
+            super::super::StudyDesign::from_toml(&text).unwrap()
+        };
+        assert!(together(&design("au_coding", "[au_coding]\ntogether = true\n")));
+        assert!(!together(&design("au_coding", "")));
+        assert!(!together(&design("emotion", "[au_coding]\ntogether = true\n")));
+    }
+
+    #[test]
     fn two_videos_of_one_entry_are_refused_by_name() {
         let rows = vec![row(0, Media::Video, "wm1", "1@0.5", 0.5), row(1, Media::Video, "wm1", "1@1", 1.0)];
         let e = places(&rows).unwrap_err();

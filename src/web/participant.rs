@@ -64,7 +64,8 @@ async fn landing(State(app): State<AppState>, Path(slug): Path<String>, Query(qu
     let params = entry_params(platform, &query)?;
     let preview = platform == Platform::Mturk && query.get("assignmentId").is_some_and(|a| a == "ASSIGNMENT_ID_NOT_AVAILABLE");
     let open = is_open(&app, &slug).await?;
-    let minutes = (study.design.trials_per_participant.max(study.stimuli.len().min(60)) as f64 * 0.25).ceil().max(2.0);
+    let trials = study.stimuli.values().filter(|s| s.has_trials()).count();
+    let minutes = (study.design.trials_per_participant.max(trials.min(60)) as f64 * 0.25).ceil().max(2.0);
     app.render(
         "landing.html",
         &merge(
