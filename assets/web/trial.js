@@ -1,5 +1,6 @@
 // One trial page: measures the response time from the stimulus's first painted frame, notes
-// whether a video played to its end, and saves the answer with its idempotency key. The page
+// whether a video played to its end, gives a video its coding controls (frame steps, replay,
+// speeds) and counts their use with the time in view, and saves the answer with its idempotency key. The page
 // moves on only after the server acknowledges the save; until then the answer waits in a queue
 // (localStorage) and is sent again with growing pauses, also after a reload.
 (function () {
@@ -13,23 +14,89 @@
   const stimulus = document.getElementById('stimulus');
   let shownAt = null;
   let ended = false;
+  // How the media are viewed (study::viewing): replays, frame steps, speeds, time in view.
+  const viewing = { replays: 0, frame_steps: 0, speeds: [] };
+  let visibleMs = 0;
+  let visibleSince = null;
 
   function painted() {
-    requestAnimationFrame(function () { if (shownAt === null) shownAt = performance.now(); });
+    requestAnimationFrame(function () {
+      if (shownAt !== null) return;
+      shownAt = performance.now();
+      if (document.visibilityState === 'visible') visibleSince = shownAt;
+    });
+  }
+  document.addEventListener('visibilitychange', function () {
+    if (shownAt === null) return;
+    if (document.visibilityState === 'visible') visibleSince = performance.now();
+    else if (visibleSince !== null) { visibleMs += performance.now() - visibleSince; visibleSince = null; }
+  });
+  function timeOnTask() {
+    const now = visibleSince === null ? 0 : performance.now() - visibleSince;
+    return Math.round((visibleMs + now) * 10) / 10;
   }
   function failed() { form.elements.load_failed.value = '1'; painted(); }
   if (stimulus.tagName === 'VIDEO') {
     stimulus.addEventListener('playing', painted);
     stimulus.addEventListener('ended', function () { ended = true; });
     stimulus.addEventListener('error', failed);
-    const replay = document.getElementById('replay');
-    if (replay) replay.addEventListener('click', function () { stimulus.currentTime = 0; stimulus.play(); });
+    videoControls(stimulus);
     stimulus.play().catch(function () { /* autoplay refused: the participant presses Play again */ });
   } else if (stimulus.complete && stimulus.naturalWidth > 0) {
     painted();
   } else {
     stimulus.addEventListener('load', painted);
     stimulus.addEventListener('error', failed);
+  }
+
+  // Coding videos: play/pause, replay, one frame back or forward (paused), slower speeds; by
+  // buttons and by keys (, . r p) unless a menu or text field has the focus.
+  function videoControls(video) {
+    const fps = Number(video.dataset.fps) || 0;
+    const button = function (id) { return document.getElementById(id); };
+    const play = button('play');
+    function used(rate) { if (viewing.speeds.indexOf(rate) < 0) viewing.speeds.push(rate); }
+    function showState() {
+      if (!play) return;
+      play.textContent = video.paused ? 'Play' : 'Pause';
+      play.setAttribute('aria-label', (video.paused ? 'Play' : 'Pause') + ' (key p)');
+    }
+    video.addEventListener('playing', function () { used(video.playbackRate); showState(); });
+    video.addEventListener('pause', showState);
+    video.addEventListener('ended', showState);
+    video.addEventListener('ratechange', function () { if (!video.paused) used(video.playbackRate); });
+    const actions = {
+      replay: function () { viewing.replays += 1; ended = false; video.currentTime = 0; video.play().catch(function () {}); },
+      play: function () { if (video.paused) video.play().catch(function () {}); else video.pause(); },
+      step: function (frames) {
+        if (!fps) return;
+        video.pause();
+        const last = Math.max(0, Math.floor((video.duration || 0) * fps) - 1);
+        const frame = Math.min(last, Math.max(0, Math.round(video.currentTime * fps) + frames));
+        video.currentTime = frame / fps;
+        viewing.frame_steps += 1;
+      },
+    };
+    const bind = function (id, action) { const b = button(id); if (b) b.addEventListener('click', action); };
+    bind('replay', actions.replay);
+    bind('play', actions.play);
+    bind('step-back', function () { actions.step(-1); });
+    bind('step-forward', function () { actions.step(1); });
+    document.querySelectorAll('.speed').forEach(function (b) {
+      b.addEventListener('click', function () {
+        video.playbackRate = Number(b.dataset.speed);
+        document.querySelectorAll('.speed').forEach(function (o) { o.setAttribute('aria-pressed', String(o === b)); });
+      });
+    });
+    // Keys only where the coder's controls are (an emotion trial keeps its one Play again button).
+    if (!document.querySelector('.player')) return;
+    document.addEventListener('keydown', function (event) {
+      const t = event.target;
+      if (event.ctrlKey || event.metaKey || event.altKey || t.tagName === 'SELECT' || t.tagName === 'TEXTAREA' || (t.tagName === 'INPUT' && t.type !== 'checkbox' && t.type !== 'radio')) return;
+      const keys = { ',': function () { actions.step(-1); }, '.': function () { actions.step(1); }, r: actions.replay, p: actions.play };
+      const action = keys[event.key];
+      if (action) { event.preventDefault(); action(); }
+    });
   }
 
   // AU coding: choosing an AU's intensity or side marks the AU, unmarking it sets its menus
@@ -114,6 +181,7 @@
       rt_ms: shownAt === null ? null : Math.round((performance.now() - shownAt) * 10) / 10,
       video_ended: stimulus.tagName === 'VIDEO' ? ended : null,
       load_failed: form.elements.load_failed.value === '1',
+      viewing: { replays: viewing.replays, frame_steps: viewing.frame_steps, speeds: viewing.speeds.slice(), time_on_task_ms: timeOnTask() },
     };
     next.disabled = true;
     status.textContent = 'Saving your answer…';

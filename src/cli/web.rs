@@ -269,7 +269,7 @@ async fn export_text(db: &Db, slug: &str, file: &str, scope: Scope) -> anyhow::R
         return Ok(crate::db::export::codebook(&design));
     }
     let format = Format::parse(file).with_context(|| format!("unknown format \"{file}\" (responses.csv, wide.csv, responses.json, codebook.csv, psych-ds)"))?;
-    let stimuli = db.study_stimuli(row.id).await?.into_iter().map(|s| s.stimulus_id).collect();
+    let stimuli = crate::db::studies::trial_stimulus_ids(&db.study_stimuli(row.id).await?);
     let mut rx = db.export(row.id, &design, stimuli, format, scope);
     let mut text = String::new();
     while let Some(chunk) = rx.recv().await {

@@ -18,6 +18,7 @@ use crate::analysis::responses::LongRow;
 use crate::stimuli::manifest::StimulusId;
 use crate::study::StudyDesign;
 use crate::study::measure::{Demographic, Kind, Measure};
+use crate::study::viewing::{self, Viewing};
 
 /// Which participations an export includes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -82,11 +83,16 @@ struct ParticipantRecord {
 struct TrialRecord {
     trial: i64,
     kind: String,
+    /// The stimulus the answers are about (with `[au_coding] together`, the entry's lead).
     stimulus_id: String,
+    /// Every stimulus the trial showed: `stimulus_id` first, then those beside it in page order.
+    shown: Vec<String>,
     answers: Vec<(String, String)>,
     rt_ms: Option<f64>,
     video_ended: Option<bool>,
     load_failed: bool,
+    /// Replays, frame steps, speeds and time on task (`study::viewing`); null without the page script.
+    viewing: Option<Viewing>,
     received_at: i64,
 }
 
@@ -220,8 +226,9 @@ impl Db {
         Fut: std::future::Future<Output = bool>,
     {
         let demographics = self.demographics_of(study_id).await?;
+        let beside = self.shown_beside(study_id).await?;
         let sql = format!(
-            "SELECT p.id, p.public_id, p.grp, p.state, p.excluded, t.position, t.kind, t.stimulus_id, r.answers, r.rt_ms, r.video_ended, r.load_failed, r.received_at, p.arm
+            "SELECT p.id, p.public_id, p.grp, p.state, p.excluded, t.position, t.kind, t.stimulus_id, r.answers, r.rt_ms, r.video_ended, r.load_failed, r.received_at, r.viewing, p.arm
              FROM participants p JOIN trials t ON t.participant_id = p.id JOIN responses r ON r.participant_id = t.participant_id AND r.position = t.position
              WHERE p.study_id = ? AND {} ORDER BY p.id, t.position",
             scope_sql(scope)
@@ -240,7 +247,7 @@ impl Db {
                 let record = ParticipantRecord {
                     participant_id: row.get(1),
                     group: row.get(2),
-                    arm: row.get(13),
+                    arm: row.get(14),
                     state: row.get(3),
                     excluded: row.get::<i64, _>(4) != 0,
                     demographics: demographics.get(&id).cloned(),
@@ -249,13 +256,23 @@ impl Db {
                 current = Some((id, record));
             }
             if let Some((_, record)) = current.as_mut() {
-                record.trials.push(trial_record(&row)?);
+                record.trials.push(trial_record(&row, &beside)?);
             }
         }
         if let Some((_, record)) = current.take() {
             each(record).await;
         }
         Ok(())
+    }
+
+    /// The stimuli each lead shows beside it, in page order (`[au_coding] together`).
+    async fn shown_beside(&self, study_id: i64) -> Result<HashMap<String, Vec<String>>, DbError> {
+        let rows = sqlx::query("SELECT lead, stimulus_id FROM stimuli WHERE study_id = ? AND lead IS NOT NULL ORDER BY lead, part").bind(study_id).fetch_all(&self.reader).await?;
+        let mut beside: HashMap<String, Vec<String>> = HashMap::new();
+        for row in rows {
+            beside.entry(row.get(0)).or_default().push(row.get(1));
+        }
+        Ok(beside)
     }
 
     pub(super) async fn demographics_of(&self, study_id: i64) -> Result<HashMap<i64, Demographics>, DbError> {
@@ -267,18 +284,23 @@ impl Db {
     }
 }
 
-/// One saved trial of the export query's row.
-fn trial_record(row: &sqlx::sqlite::SqliteRow) -> Result<TrialRecord, DbError> {
+/// One saved trial of the export query's row (`beside`: what each lead shows beside it).
+fn trial_record(row: &sqlx::sqlite::SqliteRow, beside: &HashMap<String, Vec<String>>) -> Result<TrialRecord, DbError> {
     let answers: String = row.get(8);
     let answers: Vec<(String, String)> = serde_json::from_str(&answers).map_err(|e| DbError::Internal(format!("stored answer unreadable: {e}")))?;
+    let viewing = row.get::<Option<String>, _>(13).map(|v| serde_json::from_str(&v)).transpose().map_err(|e| DbError::Internal(format!("stored viewing unreadable: {e}")))?;
+    let stimulus_id: String = row.get(7);
+    let shown = std::iter::once(stimulus_id.clone()).chain(beside.get(&stimulus_id).into_iter().flatten().cloned()).collect();
     Ok(TrialRecord {
         trial: row.get::<i64, _>(5) + 1,
         kind: row.get(6),
-        stimulus_id: row.get(7),
+        stimulus_id,
+        shown,
         answers,
         rt_ms: row.get(9),
         video_ended: row.get::<Option<i64>, _>(10).map(|v| v != 0),
         load_failed: row.get::<i64, _>(11) != 0,
+        viewing,
         received_at: row.get(12),
     })
 }
@@ -347,6 +369,21 @@ pub fn codebook_rows(design: &StudyDesign) -> Vec<[String; 4]> {
     let arms: Vec<&str> = design.arms.iter().map(|a| a.name.as_str()).collect();
     row("wide.csv", "arm", "The between-subject arm the participant joined (empty when the design has none)", &arms.join("|"));
     row("wide.csv", "<stimulus_id>:<measure>", "One column per stimulus and measure; one row per participant", "");
-    row("responses.json", "participants[].trials[]", "Every saved trial with kind (practice|trial|attention), answers, rt_ms, video_ended, load_failed, received_at (Unix ms)", "");
+    row(
+        "responses.json",
+        "participants[].trials[]",
+        "Every saved trial with kind (practice|trial|attention), stimulus_id, shown, answers, rt_ms, video_ended, load_failed, viewing, received_at (Unix ms)",
+        "",
+    );
+    let shown = if crate::study::entry::together(design) {
+        "Stimulus ids the trial showed: its stimulus_id (the entry's video, which takes the answers) first, then the entry's stills by rising intensity"
+    } else {
+        "Stimulus ids the trial showed (its stimulus_id)"
+    };
+    row("responses.json", "participants[].trials[].shown", shown, "");
+    row("responses.json", "participants[].trials[].viewing", "How the media were viewed (null when saved without the page script)", "");
+    for field in viewing::FIELDS {
+        row("responses.json", &format!("participants[].trials[].viewing.{}", field.name), field.codebook, "");
+    }
     out
 }

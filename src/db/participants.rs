@@ -289,12 +289,14 @@ impl Db {
     }
 }
 
-/// Timing facts sent with a save.
-#[derive(Debug, Clone, Copy, Default)]
+/// Timing and viewing facts sent with a save.
+#[derive(Debug, Clone, Default)]
 pub struct SaveTiming {
     pub rt_ms: Option<f64>,
     pub video_ended: Option<bool>,
     pub load_failed: bool,
+    /// Replays, frame steps, speeds and time on task (stored as JSON in `responses.viewing`).
+    pub viewing: Option<crate::study::viewing::Viewing>,
 }
 
 /// One row of the admin's participant table.
@@ -380,6 +382,8 @@ impl StimulusLoads {
     }
 }
 
+/// Only stimuli with trials of their own count: one shown beside its entry's lead is never a
+/// trial (`[au_coding] together`).
 async fn count_loads(conn: &mut SqliteConnection, study_id: i64, now: i64) -> Result<Vec<(String, usize)>, DbError> {
     let rows = sqlx::query(
         "SELECT s.stimulus_id, COUNT(p.id) FROM stimuli s
@@ -387,7 +391,7 @@ async fn count_loads(conn: &mut SqliteConnection, study_id: i64, now: i64) -> Re
          LEFT JOIN participants p ON p.id = t.participant_id AND p.study_id = s.study_id AND p.excluded = 0
              AND (p.state = 'completed' OR (p.state IN ('reserved', 'active') AND p.expires_at > ?2))
              AND (p.state <> 'reserved' OR p.created_at > ?2 - ?3)
-         WHERE s.study_id = ?1 GROUP BY s.stimulus_id ORDER BY s.stimulus_id",
+         WHERE s.study_id = ?1 AND s.lead IS NULL GROUP BY s.stimulus_id ORDER BY s.stimulus_id",
     )
     .bind(study_id)
     .bind(now)
@@ -693,6 +697,7 @@ fn check_save(facts: &SaveFacts, save: &SaveRequest, answers: &str) -> Result<Op
 pub(crate) async fn save_in(tx: &mut SqliteConnection, save: &SaveRequest) -> Result<SaveOutcome, DbError> {
     let SaveRequest { position, key, answer, timing, .. } = save;
     let answers = serde_json::to_string(&answer.0).map_err(|e| DbError::Internal(e.to_string()))?;
+    let viewing = timing.viewing.as_ref().map(serde_json::to_string).transpose().map_err(|e| DbError::Internal(e.to_string()))?;
     let facts = save_facts(tx, save).await?;
     if let Some(repeated) = check_save(&facts, save, &answers)? {
         return Ok(repeated);
@@ -705,7 +710,7 @@ pub(crate) async fn save_in(tx: &mut SqliteConnection, save: &SaveRequest) -> Re
         None => (SessionState::Active, None),
     };
     let now = now_ms();
-    sqlx::query("INSERT INTO responses (participant_id, position, idempotency_key, answers, rt_ms, video_ended, load_failed, received_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?)")
+    sqlx::query("INSERT INTO responses (participant_id, position, idempotency_key, answers, rt_ms, video_ended, load_failed, viewing, received_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)")
         .bind(facts.id)
         .bind(*position)
         .bind(key)
@@ -713,6 +718,7 @@ pub(crate) async fn save_in(tx: &mut SqliteConnection, save: &SaveRequest) -> Re
         .bind(timing.rt_ms)
         .bind(timing.video_ended)
         .bind(timing.load_failed)
+        .bind(viewing)
         .bind(now)
         .execute(&mut *tx)
         .await?;

@@ -80,14 +80,33 @@ pub struct StudyStimulus {
     pub emotion: String,
     /// The design's arms this stimulus belongs to (`study::arm`; empty without arms).
     pub arms: Vec<String>,
+    /// The stimulus whose trial shows this one beside it (`[au_coding] together`); `None`: it
+    /// has trials of its own.
+    pub lead: Option<StimulusId>,
+    /// Its place beside its lead (1-based; 0 for a stimulus without a lead).
+    pub part: u32,
+    /// A video's frame rate (the length of one frame step).
+    pub fps: Option<u32>,
 }
 
 impl StudyStimulus {
     /// The still `media/<id>.png` without an emotion label.
     pub fn still(stimulus_id: StimulusId) -> StudyStimulus {
         let file = format!("media/{stimulus_id}.png");
-        StudyStimulus { stimulus_id, media: Media::Image, file, emotion: String::new(), arms: Vec::new() }
+        StudyStimulus { stimulus_id, media: Media::Image, file, emotion: String::new(), arms: Vec::new(), lead: None, part: 0, fps: None }
     }
+
+    /// Whether participants get trials of this stimulus (it is not only shown beside another).
+    pub fn has_trials(&self) -> bool {
+        self.lead.is_none()
+    }
+}
+
+/// The ids of the stimuli that have trials, sorted (the wide export's columns).
+pub fn trial_stimulus_ids<'a>(stimuli: impl IntoIterator<Item = &'a StudyStimulus>) -> Vec<StimulusId> {
+    let mut ids: Vec<StimulusId> = stimuli.into_iter().filter(|s| s.has_trials()).map(|s| s.stimulus_id.clone()).collect();
+    ids.sort();
+    ids
 }
 
 /// Participation counts of one study, for the dashboard.
@@ -117,13 +136,16 @@ fn study_row(row: sqlx::sqlite::SqliteRow) -> Result<StudyRow, DbError> {
 }
 
 fn study_stimulus(row: sqlx::sqlite::SqliteRow) -> Result<StudyStimulus, DbError> {
-    let (id, media): (&str, &str) = (row.get(0), row.get(1));
+    let (id, media, lead): (&str, &str, Option<&str>) = (row.get(0), row.get(1), row.get(4));
     Ok(StudyStimulus {
         stimulus_id: stored(StimulusId::parse(id).ok(), "stimulus id", id)?,
         media: stored(Media::parse(media), "media kind", media)?,
         file: row.get(2),
         emotion: row.get(3),
-        arms: row.get::<String, _>(4).split_whitespace().map(str::to_string).collect(),
+        lead: lead.map(|lead| stored(StimulusId::parse(lead).ok(), "lead stimulus id", lead)).transpose()?,
+        part: row.get::<i64, _>(5).try_into().map_err(|_| DbError::Internal(format!("stimulus {id} has a negative part")))?,
+        fps: row.get::<Option<i64>, _>(6).and_then(|fps| u32::try_from(fps).ok()),
+        arms: row.get::<String, _>(7).split_whitespace().map(str::to_string).collect(),
     })
 }
 
@@ -146,12 +168,15 @@ impl Db {
             .await?
             .get(0);
         for s in stimuli {
-            sqlx::query("INSERT INTO stimuli (study_id, stimulus_id, media, file, emotion, arms) VALUES (?, ?, ?, ?, ?, ?)")
+            sqlx::query("INSERT INTO stimuli (study_id, stimulus_id, media, file, emotion, lead, part, fps, arms) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)")
                 .bind(id)
                 .bind(s.stimulus_id.as_str())
                 .bind(s.media.as_str())
                 .bind(&s.file)
                 .bind(&s.emotion)
+                .bind(s.lead.as_ref().map(StimulusId::as_str))
+                .bind(i64::from(s.part))
+                .bind(s.fps.map(i64::from))
                 .bind(s.arms.join(" "))
                 .execute(&mut *tx)
                 .await?;
@@ -191,7 +216,7 @@ impl Db {
     }
 
     pub async fn study_stimuli(&self, study_id: i64) -> Result<Vec<StudyStimulus>, DbError> {
-        let rows = sqlx::query("SELECT stimulus_id, media, file, emotion, arms FROM stimuli WHERE study_id = ? ORDER BY stimulus_id")
+        let rows = sqlx::query("SELECT stimulus_id, media, file, emotion, lead, part, fps, arms FROM stimuli WHERE study_id = ? ORDER BY stimulus_id")
             .bind(study_id)
             .fetch_all(&self.reader)
             .await?;
@@ -225,14 +250,15 @@ impl Db {
         Ok(p)
     }
 
-    /// Completed, non-excluded main-trial responses per stimulus (for balance checks and the dashboard).
+    /// Completed, non-excluded main-trial responses per stimulus that has trials (for balance
+    /// checks and the dashboard).
     pub async fn completed_counts(&self, study_id: i64) -> Result<Vec<(StimulusId, i64)>, DbError> {
         let rows = sqlx::query(
             "SELECT s.stimulus_id, COUNT(r.id) FROM stimuli s
              LEFT JOIN trials t ON t.stimulus_id = s.stimulus_id AND t.kind = 'trial'
                  AND t.participant_id IN (SELECT id FROM participants WHERE study_id = ?1 AND state = 'completed' AND excluded = 0)
              LEFT JOIN responses r ON r.participant_id = t.participant_id AND r.position = t.position
-             WHERE s.study_id = ?1 GROUP BY s.stimulus_id ORDER BY s.stimulus_id",
+             WHERE s.study_id = ?1 AND s.lead IS NULL GROUP BY s.stimulus_id ORDER BY s.stimulus_id",
         )
         .bind(study_id)
         .fetch_all(&self.reader)
@@ -246,13 +272,15 @@ impl Db {
     }
 }
 
-/// The stimuli of a built set (its `manifest.json`) that a design admits, checked to exist.
+/// The stimuli of a built set (its `manifest.json`) that a design admits, checked to exist; with
+/// `[au_coding] together`, each names the lead of its entry ([`crate::study::entry`]).
 pub fn set_stimuli(set_dir: &std::path::Path, design: &crate::study::StudyDesign) -> Result<Vec<StudyStimulus>, DbError> {
     let manifest = set_dir.join("manifest.json");
     let text = std::fs::read_to_string(&manifest).map_err(|e| DbError::NotFound(format!("{}: {e} (build the set first: facslab stimuli build SPEC -o DIR)", manifest.display())))?;
     let rows: Vec<crate::stimuli::manifest::ManifestRow> = serde_json::from_str(&text).map_err(|e| DbError::Invalid(format!("{}: {e}", manifest.display())))?;
+    let rows: Vec<_> = rows.into_iter().filter(|r| design.admits(r.media, r.intensity)).collect();
     let mut stimuli = Vec::new();
-    for row in rows.into_iter().filter(|r| design.admits(r.media, r.intensity)) {
+    for row in &rows {
         let id = StimulusId::parse(&row.stimulus_id).map_err(|e| DbError::Invalid(format!("{}: {e}", manifest.display())))?;
         let relative = std::path::Path::new(&row.file);
         if !crate::stimuli::manifest::is_media_path(&row.file) {
@@ -262,11 +290,21 @@ pub fn set_stimuli(set_dir: &std::path::Path, design: &crate::study::StudyDesign
         if !set_dir.join(relative).is_file() {
             return Err(DbError::NotFound(format!("{}: the file of stimulus {} is missing: {}", manifest.display(), row.stimulus_id, row.file)));
         }
+        let fps = row.fps.filter(|_| row.media == Media::Video);
         let arms = design.arms.iter().filter(|a| a.admits(row.media, row.intensity)).map(|a| a.name.clone()).collect();
-        stimuli.push(StudyStimulus { stimulus_id: id, media: row.media, file: row.file, emotion: row.emotion, arms });
+        stimuli.push(StudyStimulus { stimulus_id: id, media: row.media, file: row.file.clone(), emotion: row.emotion.clone(), arms, lead: None, part: 0, fps });
     }
     if stimuli.is_empty() {
         return Err(DbError::Invalid(format!("{}: no stimuli of the media this study asks for", manifest.display())));
+    }
+    if crate::study::entry::together(design) {
+        let places = crate::study::entry::places(&rows).map_err(|e| DbError::Invalid(format!("{}: {e}", manifest.display())))?;
+        for (i, place) in places.into_iter().enumerate() {
+            if let crate::study::entry::Place::Beside { lead, part } = place {
+                stimuli[i].lead = Some(stimuli[lead].stimulus_id.clone());
+                stimuli[i].part = part;
+            }
+        }
     }
     if let Some(empty) = design.arms.iter().find(|a| !stimuli.iter().any(|s| s.arms.contains(&a.name))) {
         return Err(DbError::Invalid(format!("{}: arm \"{}\" admits none of the study's stimuli (check its media and intensities)", manifest.display(), empty.name)));

@@ -16,7 +16,7 @@
 //! consent = "…"; instructions = "…"; debrief = "…"
 //!
 //! [emotion]    believability = true; believability_range = [1, 5]   # [0, 5]: HapFACS's reading
-//! [au_coding]  intensity = false; side = false
+//! [au_coding]  intensity = false; side = false; together = false   # together: an entry's video + stills, one trial
 //! [[rating.item]]  measure = "q1"; prompt = "Does the motion feel right?"; min = 0; max = 5
 //! [attention]  max_failures = 2; checks = [{ instruction = "…", measure = "emotion", value = "surprise" }]
 //! [recruitment] platform = "prolific"; completion_code = "C0DE"
@@ -174,6 +174,11 @@ pub struct CodingOptions {
     /// Coders may mark an AU as left or right only.
     #[serde(default)]
     pub side: bool,
+    /// One trial per stimulus-set entry: its video with its stills beside it, coded once (HapFACS
+    /// Exp. 1). The judgement is stored under the entry's video (`study::entry`); off: one trial
+    /// per stimulus.
+    #[serde(default)]
+    pub together: bool,
 }
 
 #[derive(Debug, Clone, PartialEq, Deserialize, Default)]

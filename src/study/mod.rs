@@ -4,17 +4,21 @@
 //! [`assign`] picks each participant's stimuli so that counts stay balanced and orders them
 //! with the participant's seed; [`session`] is the participation state machine; [`measure`]
 //! declares every measure and label set once; [`task`] turns a submitted answer into typed
-//! judgements of those measures (the long response format, design.md §3). The web layer (`crate::web`) and the database (`crate::db`) call
+//! judgements of those measures (the long response format, design.md §3); [`entry`] groups a
+//! set's stimuli into entries for trials that show them together; [`viewing`] declares the
+//! trial data on how media were viewed (replays, frame steps, speeds, time on task). The web layer (`crate::web`) and the database (`crate::db`) call
 //! these; nothing here knows about HTTP or SQL.
 
 pub mod arm;
 pub mod assign;
 pub mod design;
+pub mod entry;
 pub mod measure;
 pub mod session;
 pub mod task;
 pub mod recruitment;
 pub mod templates;
+pub mod viewing;
 pub mod worker;
 
 pub use design::{DesignError, Platform, StudyDesign, TaskKind};

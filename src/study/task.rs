@@ -14,6 +14,7 @@ use serde::Deserialize;
 
 use super::design::{StudyDesign, TaskKind};
 use super::measure::{Measure, Value};
+use super::viewing::Viewing;
 use crate::facs::{Catalog, Expression};
 
 /// Longest accepted field value, in bytes.
@@ -35,6 +36,9 @@ pub struct Submission {
     /// The stimulus failed to load.
     #[serde(default)]
     pub load_failed: bool,
+    /// How the media were viewed (the page script's counts; absent from a plain form post).
+    #[serde(default)]
+    pub viewing: Option<Viewing>,
 }
 
 /// A submission that cannot be stored.
@@ -89,7 +93,7 @@ impl Submission {
     /// Builds a submission from a form post's fields (`idempotency_key`, `rt_ms`, `video_ended`
     /// and `load_failed` are taken out; the rest are the answer's fields).
     pub fn from_form(pairs: Vec<(String, String)>) -> Result<Submission, AnswerError> {
-        let mut s = Submission { idempotency_key: String::new(), fields: Vec::new(), rt_ms: None, video_ended: None, load_failed: false };
+        let mut s = Submission { idempotency_key: String::new(), fields: Vec::new(), rt_ms: None, video_ended: None, load_failed: false, viewing: None };
         for (name, value) in pairs {
             match name.as_str() {
                 "idempotency_key" => s.idempotency_key = value,
@@ -114,6 +118,9 @@ impl Submission {
             && !(rt.is_finite() && (0.0..=86_400_000.0).contains(&rt))
         {
             return Err(fail("rt_ms", format!("{rt} is not a time between 0 and one day in milliseconds")));
+        }
+        if let Some(Err(e)) = self.viewing.as_ref().map(Viewing::check) {
+            return Err(fail(format!("viewing.{}", e.field), e.message));
         }
         if self.fields.len() > 200 {
             return Err(fail("fields", "too many fields"));
@@ -257,6 +264,7 @@ mod tests {
             rt_ms: Some(850.0),
             video_ended: None,
             load_failed: false,
+            viewing: None,
         }
     }
 
@@ -310,6 +318,9 @@ mod tests {
         let mut s = submit(&[("q1", "0")]);
         s.rt_ms = Some(-1.0);
         assert_eq!(s.answer(&d).unwrap_err().field, "rt_ms");
+        let mut s = submit(&[("q1", "0")]);
+        s.viewing = Some(Viewing { speeds: vec![3.0], ..Viewing::default() });
+        assert_eq!(s.answer(&d).unwrap_err().field, "viewing.speeds");
         let long = "x".repeat(300);
         assert_eq!(submit(&[("q1", &long)]).answer(&d).unwrap_err().field, "q1");
     }

@@ -400,8 +400,7 @@ async fn export(app: &AppState, slug: &str, file: &str, query: &HashMap<String, 
         Some("all") => Scope::All,
         Some(other) => return Err(WebError::BadRequest(format!("scope \"{other}\" is not completed or all"))),
     };
-    let mut stimuli: Vec<_> = study.stimuli.keys().cloned().collect();
-    stimuli.sort();
+    let stimuli = crate::db::studies::trial_stimulus_ids(study.stimuli.values());
     let rx = app.db.export(study.row.id, &study.design, stimuli, format, scope);
     let stream = futures_util::stream::unfold(rx, |mut rx| async move { rx.recv().await.map(|chunk| (chunk.map_err(std::io::Error::other), rx)) });
     Ok((

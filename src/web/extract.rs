@@ -1,7 +1,8 @@
 //! Typed pieces of participant URLs, parsed by extractors before a handler runs.
 //!
-//! In: the path parameters `{token}` and `{position}`. Out: a [`ParticipationToken`] (32
-//! lower-case hex digits, the secret that addresses a participation) and a [`TrialPosition`].
+//! In: the path parameters `{token}`, `{position}` and `{part}`. Out: a [`ParticipationToken`]
+//! (32 lower-case hex digits, the secret that addresses a participation), a [`TrialPosition`]
+//! and a [`MediaPart`].
 //! Invariant: a malformed value is a 404, like a token that does not exist, so the answer says
 //! nothing about which tokens are real; the database only ever sees a token's SHA-256
 //! (`crate::db::token_sha256`).
@@ -65,6 +66,19 @@ impl<S: Send + Sync> FromRequestParts<S> for TrialPosition {
 
     async fn from_request_parts(parts: &mut Parts, state: &S) -> Result<Self, WebError> {
         path_param(parts, state, "position").await?.parse().ok().filter(|p| (0..1_000_000).contains(p)).map(TrialPosition).ok_or(WebError::NotFound)
+    }
+}
+
+/// One of the media a trial shows beside its first (`/p/{token}/media/{position}/{part}`,
+/// 1-based; the first is `/p/{token}/media/{position}`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct MediaPart(pub usize);
+
+impl<S: Send + Sync> FromRequestParts<S> for MediaPart {
+    type Rejection = WebError;
+
+    async fn from_request_parts(parts: &mut Parts, state: &S) -> Result<Self, WebError> {
+        path_param(parts, state, "part").await?.parse().ok().filter(|p| (1..=64).contains(p)).map(MediaPart).ok_or(WebError::NotFound)
     }
 }
 

@@ -51,6 +51,17 @@ pub struct LoadedStudy {
     pub set_dir: PathBuf,
 }
 
+impl LoadedStudy {
+    /// What a trial of stimulus `lead` shows: `lead` first, then the stimuli shown beside it
+    /// (`[au_coding] together`) by their part; empty when the study has no such stimulus.
+    pub fn shown(&self, lead: &StimulusId) -> Vec<&StudyStimulus> {
+        let Some(first) = self.stimuli.get(lead) else { return Vec::new() };
+        let mut beside: Vec<&StudyStimulus> = self.stimuli.values().filter(|s| s.lead.as_ref() == Some(lead)).collect();
+        beside.sort_by_key(|s| s.part);
+        std::iter::once(first).chain(beside).collect()
+    }
+}
+
 /// How the server meets the world: behind HTTPS or not, behind a proxy or not, how many starts
 /// one address may make.
 #[derive(Debug, Clone)]

@@ -18,7 +18,7 @@ use axum_extra::extract::cookie::SameSite;
 use serde_json::json;
 use tower_http::services::ServeFile;
 
-use super::extract::{ParticipationToken, TrialPosition};
+use super::extract::{MediaPart, ParticipationToken, TrialPosition};
 use super::limit::ClientAddress;
 use super::{AppState, LoadedStudy, WebError, merge};
 use crate::db::participants::{Demographics, Participation, SaveOutcome, SaveTiming, Started, TrialRow};
@@ -42,6 +42,7 @@ pub fn routes() -> Router<AppState> {
         .route("/p/{token}/trial/{position}", post(save_form))
         .route("/p/{token}/api/trial/{position}", post(save_json))
         .route("/p/{token}/media/{position}", get(media))
+        .route("/p/{token}/media/{position}/{part}", get(media_part))
         .route("/p/{token}/done", get(done))
         .route("/p/{token}/withdraw", get(withdraw_page).post(withdraw))
 }
@@ -73,13 +74,13 @@ async fn landing(State(app): State<AppState>, Path(slug): Path<String>, Query(qu
     )
 }
 
-/// How many main trials a participant gets at most: the design's share, or every stimulus of
-/// the largest arm (of the study without arms).
+/// How many main trials a participant gets at most: the design's share, or every stimulus with
+/// trials (not those only shown beside another) of the largest arm (of the study without arms).
 fn trials_shown(study: &LoadedStudy) -> usize {
-    let arm_size = |name: &str| study.stimuli.values().filter(|s| s.arms.iter().any(|a| a == name)).count();
+    let with_trials = || study.stimuli.values().filter(|s| s.has_trials());
     let all = match study.design.arms.is_empty() {
-        true => study.stimuli.len(),
-        false => study.design.arms.iter().map(|a| arm_size(&a.name)).max().unwrap_or(0),
+        true => with_trials().count(),
+        false => study.design.arms.iter().map(|a| with_trials().filter(|s| s.arms.contains(&a.name)).count()).max().unwrap_or(0),
     };
     if study.design.shares_stimuli() { study.design.trials_per_participant.min(all) } else { all }
 }
@@ -367,7 +368,8 @@ async fn trial_page(State(app): State<AppState>, token: ParticipationToken) -> R
         return Ok(Redirect::to(&format!("/p/{token}")).into_response());
     };
     let design = &study.design;
-    let stimulus = study.stimuli.get(&trial.stimulus_id).ok_or_else(|| WebError::Internal { context: format!("stimulus {} missing from the study", trial.stimulus_id), source: None })?;
+    let shown = study.shown(&trial.stimulus_id);
+    let stimulus = shown.first().ok_or_else(|| WebError::Internal { context: format!("stimulus {} missing from the study", trial.stimulus_id), source: None })?;
     let done = trials.iter().filter(|t| t.answered).count();
     let attention = trial.check_index.and_then(|i| design.attention.checks.get(i)).map(|c| c.instruction.clone());
     let description = (design.task == TaskKind::Rating).then(|| design.rating.descriptions.get(&stimulus.emotion).cloned()).flatten();
@@ -382,6 +384,9 @@ async fn trial_page(State(app): State<AppState>, token: ParticipationToken) -> R
         "position": trial.position,
         "idempotency_key": secret_token(),
         "media": stimulus.media,
+        "beside": beside_context(&token, trial.position, &shown),
+        "fps": stimulus.fps,
+        "speeds": crate::study::viewing::SPEEDS.map(|speed| json!({ "label": speed.to_string(), "normal": speed == 1.0 })),
         "practice": trial.kind == TrialKind::Practice,
         "attention": attention,
         "description": description,
@@ -399,11 +404,23 @@ async fn trial_page(State(app): State<AppState>, token: ParticipationToken) -> R
     app.render("trial.html", &merge(page(&study, "Face"), context))
 }
 
+/// The media a trial shows beside its first, by part (their URLs say only the position and part).
+fn beside_context(token: &ParticipationToken, position: i64, shown: &[&crate::db::studies::StudyStimulus]) -> serde_json::Value {
+    let count = shown.len().saturating_sub(1);
+    let beside: Vec<_> = shown
+        .iter()
+        .enumerate()
+        .skip(1)
+        .map(|(part, s)| json!({ "url": format!("/p/{token}/media/{position}/{part}"), "media": s.media, "label": format!("The same face, picture {part} of {count}") }))
+        .collect();
+    json!(beside)
+}
+
 /// Validates and stores one answer; returns where the participant goes next.
 async fn save(app: &AppState, token: &ParticipationToken, position: i64, submission: Submission) -> Result<(SaveOutcome, String), WebError> {
     let study = participation_study(app, token).await?;
     let answer = submission.answer(&study.design)?;
-    let timing = SaveTiming { rt_ms: submission.rt_ms, video_ended: submission.video_ended, load_failed: submission.load_failed };
+    let timing = SaveTiming { rt_ms: submission.rt_ms, video_ended: submission.video_ended, load_failed: submission.load_failed, viewing: submission.viewing };
     let outcome = app.db.save_response(token.as_str(), position, &submission.idempotency_key, &answer, timing, &study.design).await?;
     let next = if outcome.state == SessionState::Active && outcome.remaining > 0 { format!("/p/{token}/trial") } else { format!("/p/{token}/done") };
     Ok((outcome, next))
@@ -430,11 +447,12 @@ async fn save_json(State(app): State<AppState>, token: ParticipationToken, Trial
     }
 }
 
-/// The file of the trial at `position` if the participant may fetch it now: the participant is
-/// at the trials (consent and the design's steps done) and the trial is the current one, an
-/// answered one or one of the [`PRELOAD_AHEAD`] after the current one; the file lies directly
-/// under the set's `media/`. Anything else is 404.
-async fn reachable_media(app: &AppState, token: &ParticipationToken, position: i64) -> Result<(std::path::PathBuf, Media), WebError> {
+/// The file of the trial at `position` (its `part`: 0 for its first medium, 1… for those shown
+/// beside it) if the participant may fetch it now: the participant is at the trials (consent and
+/// the design's steps done) and the trial is the current one, an answered one or one of the
+/// [`PRELOAD_AHEAD`] after the current one; the file lies directly under the set's `media/`.
+/// Anything else is 404.
+async fn reachable_media(app: &AppState, token: &ParticipationToken, position: i64, part: usize) -> Result<(std::path::PathBuf, Media), WebError> {
     let (p, study) = participation(app, token).await?;
     let at_trials = p.state == SessionState::Active && (p.has_demographics || !study.design.demographics);
     if !at_trials {
@@ -443,16 +461,34 @@ async fn reachable_media(app: &AppState, token: &ParticipationToken, position: i
     let trials = app.db.trials(p.id).await?;
     let current = trials.iter().find(|t| !t.answered).map_or(i64::MAX, |t| t.position);
     let trial = trials.iter().find(|t| t.position == position && position <= current.saturating_add(PRELOAD_AHEAD)).ok_or(WebError::NotFound)?;
-    let stimulus = study.stimuli.get(&trial.stimulus_id).filter(|s| crate::stimuli::manifest::is_media_path(&s.file)).ok_or(WebError::NotFound)?;
+    let shown = study.shown(&trial.stimulus_id);
+    let stimulus = shown.get(part).filter(|s| crate::stimuli::manifest::is_media_path(&s.file)).ok_or(WebError::NotFound)?;
     Ok((study.set_dir.join(&stimulus.file), stimulus.media))
 }
 
-/// The stimulus of a trial, by position only (the URL says nothing about what it shows).
-/// tower-http's `ServeFile` answers byte ranges (video elements seek with them) and
-/// `If-Modified-Since`/`If-None-Match`-style revalidation; the type is the stimulus's [`Media`].
+/// The first medium of a trial, by position only (the URL says nothing about what it shows).
 async fn media(State(app): State<AppState>, token: ParticipationToken, TrialPosition(position): TrialPosition, request: axum::extract::Request) -> Result<Response, WebError> {
-    let (file, kind) = reachable_media(&app, &token, position).await?;
-    let served = ServeFile::new(&file).try_call(request).await.map_err(|e| WebError::internal("reading a stimulus file", e))?;
+    let (file, kind) = reachable_media(&app, &token, position, 0).await?;
+    serve_media(&app, &file, kind, request).await
+}
+
+/// A medium shown beside a trial's first, by position and part only.
+async fn media_part(
+    State(app): State<AppState>,
+    token: ParticipationToken,
+    TrialPosition(position): TrialPosition,
+    MediaPart(part): MediaPart,
+    request: axum::extract::Request,
+) -> Result<Response, WebError> {
+    let (file, kind) = reachable_media(&app, &token, position, part).await?;
+    serve_media(&app, &file, kind, request).await
+}
+
+/// Serves a stimulus file. tower-http's `ServeFile` answers byte ranges (video elements seek
+/// with them) and `If-Modified-Since`/`If-None-Match`-style revalidation; the type is the
+/// stimulus's [`Media`].
+async fn serve_media(app: &AppState, file: &std::path::Path, kind: Media, request: axum::extract::Request) -> Result<Response, WebError> {
+    let served = ServeFile::new(file).try_call(request).await.map_err(|e| WebError::internal("reading a stimulus file", e))?;
     let mut response = served.map(axum::body::Body::new);
     if response.status() == StatusCode::NOT_FOUND {
         return Err(WebError::internal("a stimulus file is missing", format!("{} is not there", file.display())));

@@ -21,6 +21,12 @@ instructions = "go"
 debrief = "thanks"
 "#;
 
+/// An answer choosing "fear" (the emotion studies') or marking AU 1 (the coding studies').
+fn answer(measure: Measure) -> Answer {
+    let text = if measure == Measure::Emotion { "fear" } else { "1" };
+    Answer(vec![Judgement { measure, value: measure.value(text, facslab::facs::Catalog::built_in()).expect("a value") }])
+}
+
 /// Runs one participant: completes all trials, or reserves and walks away.
 async fn participant(db: Db, design: StudyDesign, study: i64, worker: String, abandons: bool) -> Option<bool> {
     let token = match db.start_participation(study, &design, &design.sources[0], &worker, "{}").await.unwrap() {
@@ -34,10 +40,8 @@ async fn participant(db: Db, design: StudyDesign, study: i64, worker: String, ab
     db.give_consent(&token, &design.consent_sha256()).await.unwrap();
     let p = db.participation(&token).await.unwrap().unwrap();
     for trial in db.trials(p.id).await.unwrap() {
-        let fear = Measure::Emotion.value("fear", facslab::facs::Catalog::built_in()).expect("a label");
-        let answer = Answer(vec![Judgement { measure: Measure::Emotion, value: fear }]);
         let key = format!("{token}-{}", trial.position);
-        db.save_response(&token, trial.position, &key, &answer, SaveTiming::default(), &design).await.unwrap();
+        db.save_response(&token, trial.position, &key, &answer(design.measures()[0]), SaveTiming::default(), &design).await.unwrap();
     }
     Some(true)
 }
@@ -83,4 +87,33 @@ async fn balanced_assignment_ends_within_one_rating_of_the_target() {
     }
     let total: i64 = counts.iter().map(|(_, n)| n).sum();
     assert_eq!(total, completed as i64 * 3, "every completed participant rated three stimuli");
+}
+
+/// Entries shown together (`[au_coding] together`): only their leads are assigned and counted,
+/// so the balance holds per entry and no stimulus shown beside a lead gets a trial of its own.
+#[tokio::test(flavor = "multi_thread")]
+async fn balanced_assignment_counts_an_entry_shown_together_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let db = Db::open(&dir.path().join("entries.db")).await.unwrap();
+    let text = DESIGN.replace("task = \"emotion\"", "task = \"au_coding\"").replace("trials_per_participant = 3", "trials_per_participant = 2").replace("ratings_per_stimulus = 6", "ratings_per_stimulus = 4")
+        + "[au_coding]\ntogether = true\n";
+    let design = StudyDesign::from_toml(&text).unwrap();
+    let id = |i| facslab::stimuli::StimulusId::parse(&facslab::stimuli::stimulus_id(2, i)).unwrap();
+    // Five entries: a lead and three stills beside it.
+    let stimuli: Vec<StudyStimulus> = (0..20)
+        .map(|i| StudyStimulus { lead: (i % 4 != 0).then(|| id(i - i % 4)), part: (i % 4) as u32, ..StudyStimulus::still(id(i)) })
+        .collect();
+    let study = db.create_study(&design, &text, "set", &stimuli, true).await.unwrap();
+    let mut leads: Vec<String> = (0..5).map(|e| id(4 * e).to_string()).collect();
+    leads.sort();
+    let mut completed = 0;
+    while let Some(done) = participant(db.clone(), design.clone(), study, format!("c{completed}"), false).await {
+        completed += usize::from(done);
+        assert!(completed < 100, "the study never filled");
+    }
+    let counts = db.completed_counts(study).await.unwrap();
+    assert_eq!(counts.iter().map(|(s, _)| s.to_string()).collect::<Vec<_>>(), leads);
+    assert!(counts.iter().all(|(_, n)| *n == 4), "{counts:?}");
+    // Every trial went to a lead: 5 entries × 4 codings, 2 per coder.
+    assert_eq!(completed, 10);
 }

@@ -647,3 +647,130 @@ async fn e2e_screenshots_of_every_page() {
     }
     browser.close().await;
 }
+
+/// The coder's video on screen, as (currentTime, paused, playbackRate, seeking, duration).
+async fn video_state(browser: &Browser) -> (f64, bool, f64, bool, f64) {
+    let v = browser.execute("const v = document.getElementById('stimulus'); return [v.currentTime, v.paused, v.playbackRate, v.seeking, v.duration];").await;
+    (v[0].as_f64().unwrap(), v[1] == true, v[2].as_f64().unwrap(), v[3] == true, v[4].as_f64().unwrap_or(0.0))
+}
+
+/// Steps one frame with `how` (a click or a key) and checks that the video is paused, one
+/// frame (1/`fps` s) from `from`, on a frame; returns the new time.
+async fn step_frame(browser: &Browser, how: StepBy<'_>, from: f64, fps: f64, direction: f64) -> f64 {
+    match how {
+        StepBy::Click(css) => browser.click(css).await,
+        StepBy::Key(css, key) => browser.find(css).await.send_keys(key).await.unwrap_or_else(|e| panic!("key {key} on {css}: {e}")),
+    }
+    let expected = from + direction / fps;
+    let js = format!("const v = document.getElementById('stimulus'); return !v.seeking && Math.abs(v.currentTime - {expected}) < 1e-6;");
+    browser.wait_for(&format!("(function () {{ {js} }})()"), TIMEOUT).await;
+    let (time, paused, ..) = video_state(browser).await;
+    assert!(paused, "stepping a frame pauses the video");
+    assert!(((time - from).abs() * fps - 1.0).abs() < 1e-6, "moved from {from} to {time}, not one frame at {fps} fps");
+    time
+}
+
+/// How a frame step is asked for.
+#[derive(Clone, Copy)]
+enum StepBy<'a> {
+    Click(&'a str),
+    /// A key typed with the focus on the element `css` (a button, as a coder tabbing through).
+    Key(&'a str, &'a str),
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn e2e_coder_steps_frames_replays_and_slows_the_video_and_the_export_says_so() {
+    let Some(browser) = Browser::start().await else { return };
+    // The Exp. 1 shape at the study's frame size (two AUs, so it builds fast).
+    let set = crate::study::EXP1_SHAPE.replace("size = [64, 64]", "size = [485, 480]").replace(r#"["1", "4", "R14"]"#, r#"["1", "12"]"#);
+    let lab = Lab::with_set(&set);
+    lab.study("exp1", include_str!("../../studies/exp1-coders.toml"));
+    let server = lab.serve();
+    start_session(&browser, &server, "exp1", true).await;
+    let view = trial_view(&browser).await;
+    assert_eq!(view.media, "video");
+    assert_eq!(browser.execute("return document.querySelectorAll('.beside img').length;").await, 3);
+    let fps: f64 = browser.find("#stimulus").await.attr("data-fps").await.unwrap().unwrap().parse().unwrap();
+    assert_eq!(fps, 10.0);
+
+    // A patient coder watches the clip to its end, then steps back three frames and forward one.
+    watch_to_the_end(&browser).await;
+    let (end, ..) = video_state(&browser).await;
+    browser.click("#step-back").await;
+    browser.wait_for("!document.getElementById('stimulus').seeking && document.getElementById('stimulus').currentTime < document.getElementById('stimulus').duration", TIMEOUT).await;
+    let (on_frame, paused, ..) = video_state(&browser).await;
+    assert!(paused && on_frame < end && ((on_frame * fps) - (on_frame * fps).round()).abs() < 1e-6, "{on_frame} of {end}");
+    let back = step_frame(&browser, StepBy::Key("#step-back", ","), on_frame, fps, -1.0).await;
+    let back = step_frame(&browser, StepBy::Click("#step-back"), back, fps, -1.0).await;
+    let forward = step_frame(&browser, StepBy::Key("#step-forward", "."), back, fps, 1.0).await;
+    assert!(forward > back);
+    entry_screenshots(&browser).await;
+
+    // Half speed, then replay by button and by key: it plays from the start at 0.5×.
+    browser.click(".speed[data-speed=\"0.5\"]").await;
+    assert_eq!(browser.find(".speed[data-speed=\"0.5\"]").await.attr("aria-pressed").await.unwrap().as_deref(), Some("true"));
+    browser.click("#replay").await;
+    browser.wait_for("!document.getElementById('stimulus').paused && document.getElementById('stimulus').playbackRate === 0.5", TIMEOUT).await;
+    browser.find("#replay").await.send_keys("r").await.unwrap();
+    browser.wait_for("!document.getElementById('stimulus').paused && document.getElementById('stimulus').currentTime < 0.3", TIMEOUT).await;
+    let (.., rate, _, _) = video_state(&browser).await;
+    assert_eq!(rate, 0.5);
+
+    // AU 1 was marked for the screenshots.
+    assert_eq!(browser.execute("return document.querySelector('input[name=au][value=\"1\"]').checked;").await, true);
+    submit(&browser, &view).await;
+    let stored = stored_trial(&browser, &server, view.position).await;
+    let viewing = &stored["viewing"];
+    assert_eq!((viewing["replays"].as_u64(), viewing["frame_steps"].as_u64()), (Some(2), Some(4)), "{stored}");
+    assert_eq!(viewing["speeds"], serde_json::json!([1.0, 0.5]), "{stored}");
+    let (time_on_task, rt) = (viewing["time_on_task_ms"].as_f64().unwrap(), stored["rt_ms"].as_f64().unwrap());
+    assert!(time_on_task > 500.0 && time_on_task <= rt + 0.1, "time on task {time_on_task} ms, rt {rt} ms: {stored}");
+    assert_eq!(stored["answers"], serde_json::json!([["aus", "1"]]));
+    assert_eq!(stored["shown"].as_array().unwrap().len(), 4, "{stored}");
+    browser.close().await;
+}
+
+/// The stored trial at `position` of the study's only participant, from the admin's JSON export
+/// (every participation, so one still going counts).
+async fn stored_trial(browser: &Browser, server: &Server, position: i64) -> Value {
+    let participant = token(browser).await;
+    admin_login(browser, server).await;
+    let json: Value = serde_json::from_str(&fetch_text(browser, "/admin/studies/exp1/export/responses.json?scope=all").await).unwrap();
+    let trials = json["participants"][0]["trials"].as_array().unwrap_or_else(|| panic!("no trials for {participant}: {json}"));
+    trials.iter().find(|t| t["trial"].as_i64() == Some(position + 1)).cloned().unwrap_or_else(|| panic!("trial {position} not stored: {json}"))
+}
+
+/// Screenshots of the Exp. 1 trial (video held on a frame, stills beside it, AU 1 marked) at
+/// desktop and phone size, into `FACSLAB_SCREENSHOTS` when set; on a phone the video and its
+/// stills stay in view while the coder scrolls down the checklist.
+async fn entry_screenshots(browser: &Browser) {
+    let temp = tempfile::tempdir().unwrap();
+    let dir = std::env::var_os("FACSLAB_SCREENSHOTS").map(PathBuf::from).unwrap_or_else(|| temp.path().to_path_buf());
+    let mut shots = Shots { dir: dir.clone(), taken: Vec::new() };
+    browser.wait_for("[...document.querySelectorAll('.beside img')].every(i => i.complete && i.naturalWidth > 0)", TIMEOUT).await;
+    tap(browser, "input[name=au][value=\"1\"]").await;
+    shots.page(browser, "13-trial-entry").await;
+    browser.set_window_size(SIZES[1].1, SIZES[1].2).await;
+    let first = browser.execute("return document.querySelector('.questions .choice').getBoundingClientRect().bottom;").await;
+    assert!(first.as_f64().unwrap() < SIZES[1].2 as f64, "the first AU is below the first phone screen: {first}");
+    browser.execute("document.querySelector('input[name=au][value=\"25\"]').scrollIntoView({ block: 'end' }); return true;").await;
+    tokio::time::sleep(Duration::from_millis(150)).await;
+    let seen = browser
+        .execute(
+            "const rect = e => e.getBoundingClientRect();
+             const all = [document.getElementById('stimulus'), ...document.querySelectorAll('.beside img'), document.getElementById('step-forward')];
+             return { scrolled: window.scrollY, top: Math.min(...all.map(e => rect(e).top)), bottom: Math.max(...all.map(e => rect(e).bottom)), stills: rect(document.querySelector('.beside img')).height };",
+        )
+        .await;
+    let (top, bottom) = (seen["top"].as_f64().unwrap(), seen["bottom"].as_f64().unwrap());
+    assert!(seen["scrolled"].as_f64().unwrap() > 800.0 && top >= 0.0 && bottom < 0.5 * SIZES[1].2 as f64, "the face scrolled away or covers the list: {seen}");
+    assert!(seen["stills"].as_f64().unwrap() >= 60.0, "stills too small to code: {seen}");
+    let scrolled = dir.join("13-trial-entry-scrolled-phone.png");
+    browser.screenshot(&scrolled).await;
+    shots.taken.push(scrolled);
+    browser.execute("window.scrollTo(0, 0); return true;").await;
+    browser.set_window_size(SIZES[0].1, SIZES[0].2).await;
+    for file in &shots.taken {
+        check_png(file);
+    }
+}

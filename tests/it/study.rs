@@ -261,3 +261,123 @@ async fn study_attention_policy_screens_out_after_two_failures() {
     let progress: serde_json::Value = http.get(server.url("/admin/studies/att/progress.json")).header("cookie", &cookie).send().await.unwrap().json().await.unwrap();
     assert_eq!((progress["screened_out"].as_i64(), progress["completed"].as_i64()), (Some(1), Some(0)));
 }
+
+/// The Exp. 1 shape, small: three single AUs, each a video at 100 % and stills at 30/60/90 % on
+/// one identity (identities rotating), at 64×64 and 10 fps.
+pub const EXP1_SHAPE: &str = r#"
+name = "exp1-small"
+seed = 1001
+size = [64, 64]
+fps = 10
+
+[[group]]
+name = "single AUs"
+expressions = ["1", "4", "R14"]
+video_peaks = [1.0]
+stills = [0.3, 0.6, 0.9]
+timing = { onset_s = 0.3, apex_s = 0.2, offset_s = 0.3, ramp = "linear" }
+identity = "rotate"
+"#;
+
+/// The manifest's rows as JSON objects.
+fn manifest_rows(lab: &Lab) -> Vec<serde_json::Value> {
+    serde_json::from_str(&std::fs::read_to_string(lab.path().join("set/manifest.json")).unwrap()).unwrap()
+}
+
+/// What a coder's trial of one entry shows: the video, then three stills by part, each served by
+/// position and part only; a fourth part does not exist. Returns the page.
+async fn entry_trial_page(http: &reqwest::Client, server: &Server, token: &str, position: i64, secrets: &[String]) -> String {
+    let html = http.get(server.url(&format!("/p/{token}/trial"))).send().await.unwrap().text().await.unwrap();
+    assert!(html.contains(&format!("<video id=\"stimulus\" aria-label=\"A moving face\" src=\"/p/{token}/media/{position}\"")), "{html}");
+    assert!(html.contains("data-fps=\"10\"") && html.contains("id=\"step-forward\"") && html.contains("data-speed=\"0.25\""), "{html}");
+    for part in 1..=3 {
+        assert!(html.contains(&format!("src=\"/p/{token}/media/{position}/{part}\"")), "part {part} missing: {html}");
+        let still = http.get(server.url(&format!("/p/{token}/media/{position}/{part}"))).send().await.unwrap();
+        assert_eq!((still.status().as_u16(), still.headers()["content-type"].to_str().unwrap()), (200, "image/png"));
+    }
+    let video = http.get(server.url(&format!("/p/{token}/media/{position}"))).send().await.unwrap();
+    assert_eq!(video.headers()["content-type"].to_str().unwrap(), "video/mp4");
+    for missing in ["4", "0", "x"] {
+        let r = http.get(server.url(&format!("/p/{token}/media/{position}/{missing}"))).send().await.unwrap();
+        assert_eq!(r.status(), 404, "part {missing}");
+    }
+    for secret in secrets {
+        assert!(!html.contains(secret.as_str()), "trial {position} reveals {secret}");
+    }
+    html
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn study_exp1_coder_codes_each_au_once_from_its_video_and_stills() {
+    let lab = Lab::with_set(EXP1_SHAPE);
+    // The published template as it is, over the small set.
+    lab.study("exp1", include_str!("../../studies/exp1-coders.toml"));
+    let server = lab.serve();
+    let http = client();
+    let manifest = manifest_rows(&lab);
+    assert_eq!(manifest.len(), 12);
+    let secrets: Vec<String> = manifest.iter().flat_map(|r| ["stimulus_id", "expression", "file"].map(|k| r[k].as_str().unwrap().to_string())).collect();
+
+    let token = start(&http, &server, "exp1", &[]).await;
+    consent_and_demographics(&http, &server, &token).await;
+    let mut positions = Vec::new();
+    while let Some(position) = current_position(&http, &server, &token).await {
+        let html = entry_trial_page(&http, &server, &token, position, &secrets).await;
+        // Every coder marks AU 1 (which also passes the check question).
+        let body = serde_json::json!({
+            "idempotency_key": format!("key-{token}-{position}"),
+            "fields": [["au", "1"]],
+            "rt_ms": 4000.0,
+            "video_ended": true,
+            "viewing": { "replays": position, "frame_steps": 3, "speeds": [1, 0.25], "time_on_task_ms": 3500.5 },
+        });
+        let r = http.post(server.url(&format!("/p/{token}/api/trial/{position}"))).json(&body).send().await.unwrap();
+        assert_eq!(r.status(), 200, "{html}");
+        positions.push(position);
+    }
+    // 1 practice + one trial per AU (not per medium) + 1 check question.
+    assert_eq!(positions.len(), 1 + 3 + 1);
+
+    let cookie = admin_cookie(&http, &server).await;
+    let export = |file: &str| {
+        let request = http.get(server.url(&format!("/admin/studies/exp1/export/{file}"))).header("cookie", &cookie);
+        async move { request.send().await.unwrap().text().await.unwrap() }
+    };
+    check_entry_export(&manifest, &serde_json::from_str(&export("responses.json").await).unwrap());
+    let csv = export("responses.csv").await;
+    let coded: Vec<&str> = csv.lines().filter(|l| l.contains(",aus,")).collect();
+    let videos: HashSet<String> = manifest.iter().filter(|r| r["media"] == "video").map(|r| r["stimulus_id"].as_str().unwrap().to_string()).collect();
+    assert_eq!(coded.len(), 3, "{csv}");
+    assert!(coded.iter().all(|l| videos.contains(l.split(',').nth(2).unwrap())), "judgements under the videos: {csv}");
+    let wide = export("wide.csv").await;
+    assert_eq!(wide.lines().next().unwrap().matches(":aus").count(), 3, "{wide}");
+    let codebook = export("codebook.csv").await;
+    for field in ["trials[].shown", "viewing.replays", "viewing.frame_steps", "viewing.speeds", "viewing.time_on_task_ms"] {
+        assert!(codebook.contains(field), "{field} missing from the codebook:\n{codebook}");
+    }
+
+    // The analysis counts each AU once, with the video's ground truth: AU 1 is a hit once.
+    std::fs::write(lab.path().join("responses.csv"), &csv).unwrap();
+    facslab_ok(lab.path(), &["analyze", "--responses", "responses.csv", "--manifest", "set/manifest.csv", "-o", "report"]);
+    let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(lab.path().join("report/report.json")).unwrap()).unwrap();
+    assert_eq!(report["coding"]["stimuli"], 3, "{}", report["coding"]);
+}
+
+/// The JSON export of the Exp. 1 coder: every trial answered under its entry's video, `shown`
+/// is that video and then the stills of the same face and AU by rising intensity, and the
+/// viewing report is kept as sent.
+fn check_entry_export(manifest: &[serde_json::Value], json: &serde_json::Value) {
+    let by_id: BTreeMap<&str, &serde_json::Value> = manifest.iter().map(|r| (r["stimulus_id"].as_str().unwrap(), r)).collect();
+    let trials = json["participants"][0]["trials"].as_array().unwrap();
+    assert_eq!(trials.len(), 5, "{json}");
+    for t in trials {
+        let shown: Vec<&serde_json::Value> = t["shown"].as_array().unwrap().iter().map(|id| by_id[id.as_str().unwrap()]).collect();
+        assert_eq!(t["stimulus_id"], shown[0]["stimulus_id"], "{t}");
+        assert_eq!(shown.iter().map(|r| r["media"].as_str().unwrap()).collect::<Vec<_>>(), ["video", "image", "image", "image"], "{t}");
+        assert_eq!(shown.iter().map(|r| r["intensity"].as_f64().unwrap()).collect::<Vec<_>>(), [1.0, 0.3, 0.6, 0.9], "{t}");
+        let au = |r: &serde_json::Value| r["expression"].as_str().unwrap().split('@').next().unwrap().to_string();
+        assert!(shown.iter().all(|r| r["identity"] == shown[0]["identity"] && au(r) == au(shown[0])), "one entry: {t}");
+        let replays = t["trial"].as_i64().unwrap() - 1;
+        assert_eq!(t["viewing"], serde_json::json!({ "replays": replays, "frame_steps": 3, "speeds": [1.0, 0.25], "time_on_task_ms": 3500.5 }), "{t}");
+    }
+}
