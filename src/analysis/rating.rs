@@ -35,6 +35,7 @@ use super::manifest::{Manifest, Media};
 use super::responses::{EmotionAnswer, Rating, Responses, Scale};
 use super::stats::anova::{AnovaTable, SsType, TwoWayCells, two_way_cells};
 use super::stats::binomial::{Alternative, binomial_test};
+use super::stats::descriptive::{Summary, summary};
 use super::stats::classification::ConfusionMatrix;
 use super::stats::hit_rate::unbiased_hit_rates;
 use super::stats::reliability::{Icc, cronbach_alpha, icc};
@@ -50,7 +51,7 @@ pub const RECOGNITION_OUTCOME: &str = "recognition (proportion correct)";
 /// The outcome of the per-participant tests on believability.
 pub const BELIEVABILITY_OUTCOME: &str = "believability (participant mean)";
 
-pub const CONVENTION: &str = "Conditions: media x peak intensity in whole percent. Labels: EmFACS labels (non-neutral alphabetically, then neutral) plus none; chance = 1/options. Confusion: rows = shown emotion, columns = chosen label, percent = row percent. Recognition rate = hits/answers per shown emotion; average rate = unweighted mean over shown emotions; accuracy = hits/all answers. Hu: Wagner (1993). Binomial: exact one-sided (greater) vs chance, Clopper-Pearson 95% CI. Ratings: mean and sample SD (n-1) over all ratings of a cell. Cronbach's alpha: participants = items, stimuli = cases (HapFACS: \"participants as items, the 10 videos as cases\"), complete cases only (participants who rated every stimulus of the cell); the condition's alpha over all its stimuli is the reading that has a value when each emotion has one stimulus per condition (the paper's design), the per-emotion alpha needs at least 2 stimuli of that emotion in the condition. Group comparisons: per media x intensity condition and, as HapFACS grouped them, per intensity over both media; per-participant proportion correct or mean rating; Student (pooled) and Welch t, two-sided, Cohen's d with pooled SD, 95% CI of the difference. ANOVA: per media, emotion x intensity, between-subjects, per answer (recognition 1/0) or per rating, Type II and Type III SS, sum-to-zero contrasts.";
+pub const CONVENTION: &str = "Conditions: media x peak intensity in whole percent. Labels: EmFACS labels (non-neutral alphabetically, then neutral) plus none; chance = 1/options. Confusion: rows = shown emotion, columns = chosen label, percent = row percent. Recognition rate = hits/answers per shown emotion; average rate = unweighted mean over shown emotions; accuracy = hits/all answers. Hu: Wagner (1993). Binomial: exact one-sided (greater) vs chance, Clopper-Pearson 95% CI. Ratings: mean and sample SD (n-1) over all ratings of a cell. Participant means: per scale and condition, the mean of the participants' mean ratings with its t-based 95% CI (participants as units). Cronbach's alpha: participants = items, stimuli = cases (HapFACS: \"participants as items, the 10 videos as cases\"), complete cases only (participants who rated every stimulus of the cell); the condition's alpha over all its stimuli is the reading that has a value when each emotion has one stimulus per condition (the paper's design), the per-emotion alpha needs at least 2 stimuli of that emotion in the condition. Group comparisons: per media x intensity condition and, as HapFACS grouped them, per intensity over both media; per-participant proportion correct or mean rating; Student (pooled) and Welch t, two-sided, Cohen's d with pooled SD, 95% CI of the difference. ANOVA: per media, emotion x intensity, between-subjects, per answer (recognition 1/0) or per rating, Type II and Type III SS, sum-to-zero contrasts.";
 
 /// A confusion matrix in counts and row percent.
 #[derive(Debug, Clone, Serialize)]
@@ -116,6 +117,9 @@ pub struct ScaleSummary {
     pub alpha_items: usize,
     /// Shrout & Fleiss ICCs on the same complete stimuli × raters matrix as `alpha`.
     pub icc: Outcome<Icc>,
+    /// The participants' mean ratings summarised, participants as units: n, mean, SD, SEM and
+    /// the t-based 95 % CI of the mean.
+    pub participant_means: Outcome<Summary>,
     pub cells: Vec<ScaleCell>,
 }
 
@@ -430,7 +434,14 @@ fn scale_summary(ctx: &Context<'_>, d: &ConditionData<'_>, scale: Scale) -> Opti
         .collect();
     let all: Vec<f64> = these.iter().map(|r| r.value).collect();
     let icc = icc(&matrix).into();
-    Some(ScaleSummary { scale, overall: describe(&all), alpha, alpha_cases, alpha_items, icc, cells })
+    let mut per_rater: FxHashMap<usize, (f64, f64)> = FxHashMap::default();
+    for r in &these {
+        let v = per_rater.entry(r.participant).or_default();
+        *v = (v.0 + r.value, v.1 + 1.0);
+    }
+    let means: Vec<f64> = raters.iter().filter_map(|p| per_rater.get(p)).map(|(sum, n)| sum / n).collect();
+    let participant_means = summary(&means, 0.95).into();
+    Some(ScaleSummary { scale, overall: describe(&all), alpha, alpha_cases, alpha_items, icc, participant_means, cells })
 }
 
 /// Per-participant tallies of one condition: hits and answers per shown label, and the sum and

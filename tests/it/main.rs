@@ -10,6 +10,7 @@ mod edge;
 mod golden;
 mod render;
 mod server;
+mod power;
 mod stimuli;
 mod study;
 mod studio;
