@@ -11,9 +11,10 @@
 //! emotions at 50 % intensity, `accuracy − 0.1`); otherwise a "similar" one (HapFACS Table 2
 //! for AUs; a fixed confusion map for emotions) or, with `Confusion::Uniform`, a uniformly drawn
 //! other one. With `group_difference`, the believability of the raters of every group after
-//! the first is shifted by that many scale points. Coders also add a random unshown AU with probability `false_positive`. Each
-//! judgement is dropped with probability `missing`. Deterministic: the same options give the
-//! same bytes (SplitMix64, no other source of randomness).
+//! the first is shifted by that many scale points. Coders also add a random unshown AU with
+//! probability `false_positive`. Each judgement is dropped with probability `missing`.
+//! Deterministic: the same options give the same bytes (SplitMix64, no other source of
+//! randomness).
 
 use std::fmt::Write;
 
