@@ -451,5 +451,9 @@ mod tests {
         let rep = study.report();
         assert!(rep.design.within_emotion.is_empty());
         assert!(rep.design.notes.iter().any(|n| n.contains("emotion is not within-subject (0 of 6")), "{:?}", rep.design.notes);
+        // Nobody rated every stimulus: no complete stimuli × raters matrix, the ICC says why.
+        let scale = &rep.conditions[0].scales[0];
+        assert_eq!(scale.alpha_items, 0);
+        assert!(scale.icc.as_result().is_err_and(|why| !why.is_empty()));
     }
 }
