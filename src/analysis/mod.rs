@@ -25,6 +25,7 @@ pub mod coding;
 pub mod demographics;
 pub mod manifest;
 pub mod outcome;
+pub mod power;
 mod published;
 #[cfg(feature = "polars")]
 pub mod parquet;

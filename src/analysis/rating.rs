@@ -35,13 +35,23 @@ use super::manifest::{Manifest, Media};
 use super::responses::{EmotionAnswer, Rating, Responses, Scale};
 use super::stats::anova::{AnovaTable, SsType, TwoWayCells, two_way_cells};
 use super::stats::binomial::{Alternative, binomial_test};
+use super::stats::descriptive::{Summary, summary};
 use super::stats::classification::ConfusionMatrix;
 use super::stats::hit_rate::unbiased_hit_rates;
-use super::stats::reliability::cronbach_alpha;
+use super::stats::reliability::{Icc, cronbach_alpha, icc};
 use super::outcome::Outcome;
 use super::stats::ttest::{TTest, student_t, welch_t};
 
-pub const CONVENTION: &str = "Conditions: media x peak intensity in whole percent. Labels: EmFACS labels (non-neutral alphabetically, then neutral) plus none; chance = 1/options. Confusion: rows = shown emotion, columns = chosen label, percent = row percent. Recognition rate = hits/answers per shown emotion; average rate = unweighted mean over shown emotions; accuracy = hits/all answers. Hu: Wagner (1993). Binomial: exact one-sided (greater) vs chance, Clopper-Pearson 95% CI. Ratings: mean and sample SD (n-1) over all ratings of a cell. Cronbach's alpha: participants = items, stimuli = cases (HapFACS: \"participants as items, the 10 videos as cases\"), complete cases only (participants who rated every stimulus of the cell); the condition's alpha over all its stimuli is the reading that has a value when each emotion has one stimulus per condition (the paper's design), the per-emotion alpha needs at least 2 stimuli of that emotion in the condition. Group comparisons: per media x intensity condition and, as HapFACS grouped them, per intensity over both media; per-participant proportion correct or mean rating; Student (pooled) and Welch t, two-sided, Cohen's d with pooled SD, 95% CI of the difference. ANOVA: per media, emotion x intensity, between-subjects, per answer (recognition 1/0) or per rating, Type II and Type III SS, sum-to-zero contrasts.";
+mod design;
+
+pub use design::{BetweenConditions, DesignTests, PairedTest, WithinEmotion};
+
+/// The outcome of the per-participant tests on recognition.
+pub const RECOGNITION_OUTCOME: &str = "recognition (proportion correct)";
+/// The outcome of the per-participant tests on believability.
+pub const BELIEVABILITY_OUTCOME: &str = "believability (participant mean)";
+
+pub const CONVENTION: &str = "Conditions: media x peak intensity in whole percent. Labels: EmFACS labels (non-neutral alphabetically, then neutral) plus none; chance = 1/options. Confusion: rows = shown emotion, columns = chosen label, percent = row percent. Recognition rate = hits/answers per shown emotion; average rate = unweighted mean over shown emotions; accuracy = hits/all answers. Hu: Wagner (1993). Binomial: exact one-sided (greater) vs chance, Clopper-Pearson 95% CI. Ratings: mean and sample SD (n-1) over all ratings of a cell. Participant means: per scale and condition, the mean of the participants' mean ratings with its t-based 95% CI (participants as units). Cronbach's alpha: participants = items, stimuli = cases (HapFACS: \"participants as items, the 10 videos as cases\"), complete cases only (participants who rated every stimulus of the cell); the condition's alpha over all its stimuli is the reading that has a value when each emotion has one stimulus per condition (the paper's design), the per-emotion alpha needs at least 2 stimuli of that emotion in the condition. Group comparisons: per media x intensity condition and, as HapFACS grouped them, per intensity over both media; per-participant proportion correct or mean rating; Student (pooled) and Welch t, two-sided, Cohen's d with pooled SD, 95% CI of the difference. ANOVA: per media, emotion x intensity, between-subjects, per answer (recognition 1/0) or per rating, Type II and Type III SS, sum-to-zero contrasts.";
 
 /// A confusion matrix in counts and row percent.
 #[derive(Debug, Clone, Serialize)]
@@ -105,6 +115,11 @@ pub struct ScaleSummary {
     pub alpha: Maybe,
     pub alpha_cases: usize,
     pub alpha_items: usize,
+    /// Shrout & Fleiss ICCs on the same complete stimuli × raters matrix as `alpha`.
+    pub icc: Outcome<Icc>,
+    /// The participants' mean ratings summarised, participants as units: n, mean, SD, SEM and
+    /// the t-based 95 % CI of the mean.
+    pub participant_means: Outcome<Summary>,
     pub cells: Vec<ScaleCell>,
 }
 
@@ -174,6 +189,8 @@ pub struct RatingReport {
     pub conditions: Vec<Condition>,
     pub group_tests: Vec<GroupTest>,
     pub anova: Vec<Anova>,
+    /// RM ANOVA, paired t, one-way ANOVA with post hoc: where the design calls for them.
+    pub design: DesignTests,
     pub table14: Vec<ComparisonRow>,
 }
 
@@ -396,25 +413,35 @@ fn scale_summary(ctx: &Context<'_>, d: &ConditionData<'_>, scale: Scale) -> Opti
         }
     }
     let raters: Vec<usize> = (0..ctx.n_participants()).filter(|&p| is_rater[p]).collect();
-    let alpha_of = |cases: &[usize]| -> (Maybe, usize, usize) {
+    // Complete cases: rows = stimuli (cases), columns = the raters who rated every one of them.
+    let complete = |cases: &[usize]| -> Vec<Vec<f64>> {
         let items: Vec<usize> = raters.iter().copied().filter(|&p| cases.iter().all(|&s| value.contains_key(&key_of(p, s)))).collect();
-        let rows: Vec<Vec<f64>> = cases.iter().map(|&s| items.iter().map(|&p| value[&key_of(p, s)]).collect()).collect();
-        (Maybe::of(cronbach_alpha(&rows, 0.95).map(|a| a.alpha)), cases.len(), items.len())
+        cases.iter().map(|&s| items.iter().map(|&p| value[&key_of(p, s)]).collect()).collect()
     };
+    let alpha_of = |rows: &[Vec<f64>]| -> (Maybe, usize, usize) { (Maybe::of(cronbach_alpha(rows, 0.95).map(|a| a.alpha)), rows.len(), rows.first().map_or(0, Vec::len)) };
     let rated: Vec<usize> = d.stimuli.iter().copied().filter(|&s| is_rated[s]).collect();
-    let (alpha, alpha_cases, alpha_items) = alpha_of(&rated);
+    let matrix = complete(&rated);
+    let (alpha, alpha_cases, alpha_items) = alpha_of(&matrix);
     let cells = (0..ctx.labels.len())
         .filter_map(|t| {
             let cases: Vec<usize> = rated.iter().copied().filter(|&s| ctx.stim_label(s) == Some(t)).collect();
             if cases.is_empty() {
                 return None;
             }
-            let (alpha, alpha_cases, alpha_items) = alpha_of(&cases);
+            let (alpha, alpha_cases, alpha_items) = alpha_of(&complete(&cases));
             Some(ScaleCell { emotion: ctx.labels[t].clone(), stats: describe(&by_label[t]), alpha, alpha_cases, alpha_items })
         })
         .collect();
     let all: Vec<f64> = these.iter().map(|r| r.value).collect();
-    Some(ScaleSummary { scale, overall: describe(&all), alpha, alpha_cases, alpha_items, cells })
+    let icc = icc(&matrix).into();
+    let mut per_rater: FxHashMap<usize, (f64, f64)> = FxHashMap::default();
+    for r in &these {
+        let v = per_rater.entry(r.participant).or_default();
+        *v = (v.0 + r.value, v.1 + 1.0);
+    }
+    let means: Vec<f64> = raters.iter().filter_map(|p| per_rater.get(p)).map(|(sum, n)| sum / n).collect();
+    let participant_means = summary(&means, 0.95).into();
+    Some(ScaleSummary { scale, overall: describe(&all), alpha, alpha_cases, alpha_items, icc, participant_means, cells })
 }
 
 /// Per-participant tallies of one condition: hits and answers per shown label, and the sum and
@@ -422,6 +449,8 @@ fn scale_summary(ctx: &Context<'_>, d: &ConditionData<'_>, scale: Scale) -> Opti
 struct Tallies {
     per_participant: Vec<Option<Vec<(u64, u64)>>>,
     believability: Vec<Option<(f64, u64)>>,
+    /// Sum and count of believability ratings per participant and shown label.
+    believability_by_label: Vec<Option<Vec<(f64, u64)>>>,
 }
 
 impl Tallies {
@@ -437,12 +466,27 @@ impl Tallies {
             }
         }
         let mut believability: Vec<Option<(f64, u64)>> = vec![None; ctx.n_participants()];
+        let mut believability_by_label: Vec<Option<Vec<(f64, u64)>>> = vec![None; ctx.n_participants()];
         for r in d.ratings.iter().filter(|r| r.scale == Scale::Believability) {
             let v = believability[r.participant].get_or_insert_default();
             v.0 += r.value;
             v.1 += 1;
+            if let Some(t) = ctx.stim_label(r.stimulus) {
+                let v = &mut believability_by_label[r.participant].get_or_insert_with(|| vec![(0.0, 0); ctx.labels.len()])[t];
+                v.0 += r.value;
+                v.1 += 1;
+            }
         }
-        Tallies { per_participant, believability }
+        Tallies { per_participant, believability, believability_by_label }
+    }
+
+    /// Mean believability of participant `p`, over all their ratings or for label `t`.
+    fn believability_mean(&self, p: usize, t: Option<usize>) -> Option<f64> {
+        let (sum, n) = match t {
+            None => self.believability[p]?,
+            Some(t) => self.believability_by_label[p].as_ref()?[t],
+        };
+        (n > 0).then(|| sum / n as f64)
     }
 
     /// Proportion correct of participant `p`, over all shown labels or for label `t`.
@@ -459,7 +503,7 @@ impl Tallies {
     }
 
     fn mean_believability(&self, ps: &[usize]) -> Vec<f64> {
-        ps.iter().filter_map(|&p| self.believability[p].map(|(sum, n)| sum / n as f64)).collect()
+        ps.iter().filter_map(|&p| self.believability_mean(p, None)).collect()
     }
 }
 
@@ -484,13 +528,13 @@ fn group_tests(ctx: &Context<'_>, d: &ConditionData<'_>, shown: &[usize]) -> Vec
                 out.push(GroupTest { condition: d.name.clone(), emotion, outcome: outcome.into(), group_a, group_b, a: describe(&a), b: describe(&b), student, welch });
             };
             if !d.answers.is_empty() {
-                push("all".into(), "recognition (proportion correct)", tallies.recognition(&pa, None), tallies.recognition(&pb, None));
+                push("all".into(), RECOGNITION_OUTCOME, tallies.recognition(&pa, None), tallies.recognition(&pb, None));
             }
             if ctx.scales_present.contains(&Scale::Believability) {
-                push("all".into(), "believability (participant mean)", tallies.mean_believability(&pa), tallies.mean_believability(&pb));
+                push("all".into(), BELIEVABILITY_OUTCOME, tallies.mean_believability(&pa), tallies.mean_believability(&pb));
             }
             for &t in shown {
-                push(ctx.labels[t].clone(), "recognition (proportion correct)", tallies.recognition(&pa, Some(t)), tallies.recognition(&pb, Some(t)));
+                push(ctx.labels[t].clone(), RECOGNITION_OUTCOME, tallies.recognition(&pa, Some(t)), tallies.recognition(&pb, Some(t)));
             }
         }
     }
@@ -606,7 +650,8 @@ pub fn analyze(manifest: &Manifest, responses: &Responses) -> Option<RatingRepor
         anovas(&ctx, media, &mut anova);
     }
     let table14 = table14(&conditions);
-    Some(RatingReport { convention: CONVENTION.to_string(), chance: 1.0 / ctx.labels.len() as f64, labels: ctx.labels, conditions, group_tests: tests, anova, table14 })
+    let design = design::analyze(&ctx, &data);
+    Some(RatingReport { convention: CONVENTION.to_string(), chance: 1.0 / ctx.labels.len() as f64, labels: ctx.labels, conditions, group_tests: tests, anova, design, table14 })
 }
 
 #[cfg(test)]

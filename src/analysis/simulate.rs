@@ -12,9 +12,11 @@
 //! Answer model: a shown AU (or emotion) is given correctly with probability `accuracy` (for
 //! emotions at 50 % intensity, `accuracy − 0.1`); otherwise a "similar" one (HapFACS Table 2
 //! for AUs; a fixed confusion map for emotions) or, with `Confusion::Uniform`, a uniformly drawn
-//! other one. Coders also add a random unshown AU with probability `false_positive`. Each
-//! judgement is dropped with probability `missing`. Deterministic: the same options give the
-//! same bytes (SplitMix64, no other source of randomness).
+//! other one. With `group_difference`, the believability of the raters of every group after
+//! the first is shifted by that many scale points. Coders also add a random unshown AU with
+//! probability `false_positive`. Each judgement is dropped with probability `missing`.
+//! Deterministic: the same options give the same bytes (SplitMix64, no other source of
+//! randomness).
 
 use std::fmt::Write;
 
@@ -54,6 +56,9 @@ pub struct SimOptions {
     pub confusion: Confusion,
     pub groups: Vec<String>,
     pub missing: f64,
+    /// Believability shift (scale points) of the raters of every group after the first (exp3):
+    /// the true group difference a t-test should find.
+    pub group_difference: f64,
 }
 
 impl Default for SimOptions {
@@ -69,6 +74,7 @@ impl Default for SimOptions {
             confusion: Confusion::Similar,
             groups: vec!["local".into(), "amt".into()],
             missing: 0.0,
+            group_difference: 0.0,
         }
     }
 }
@@ -275,7 +281,9 @@ impl Simulation<'_> {
             for _ in 0..self.o.participants {
                 pn += 1;
                 let pid = format!("p{pn:04}");
-                let group = &groups[pn % groups.len()];
+                let group_index = pn % groups.len();
+                let group = &groups[group_index];
+                let shift = if group_index > 0 { self.o.group_difference } else { 0.0 };
                 demographics(&mut self.responses, &mut self.rng, &pid, group);
                 let leniency = 0.5 * self.rng.normal();
                 let mut order: Vec<usize> = (0..stimuli.len()).collect();
@@ -289,7 +297,7 @@ impl Simulation<'_> {
                     if self.rng.unit() >= self.o.missing {
                         long_row(&mut self.responses, &pid, group, place, Measure::Emotion, &chosen, Some(rt as u64));
                     }
-                    let b = (3.6 + if *video { 0.0 } else { 0.1 } + offset + leniency + 0.6 * self.rng.normal()).round().clamp(1.0, 5.0) as u8;
+                    let b = (3.6 + if *video { 0.0 } else { 0.1 } + offset + leniency + 0.6 * self.rng.normal() + shift).round().clamp(1.0, 5.0) as u8;
                     if self.rng.unit() >= self.o.missing {
                         long_row(&mut self.responses, &pid, group, place, Measure::Scale(Scale::Believability), &b.to_string(), None);
                     }

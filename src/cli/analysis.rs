@@ -54,22 +54,12 @@ pub enum ConfusionArg {
     Uniform,
 }
 
+/// The answer model of a simulation (shared by `simulate` and `power`).
 #[derive(Args)]
-pub struct SimulateArgs {
+pub struct ModelArgs {
     /// Which experiment to imitate.
     #[arg(long, value_enum, default_value = "exp1")]
     pub design: DesignArg,
-    /// Output directory for responses.csv and manifest.csv.
-    #[arg(short, long)]
-    pub output: PathBuf,
-    #[arg(long, default_value_t = 1)]
-    pub seed: u64,
-    /// Coders (exp1, exp2).
-    #[arg(long, default_value_t = 3)]
-    pub coders: usize,
-    /// Raters per media × intensity condition (exp3, exp4).
-    #[arg(long, default_value_t = 20)]
-    pub participants: usize,
     /// Identities per emotion, intensity and media (exp3, exp4).
     #[arg(long, default_value_t = 2)]
     pub identities: usize,
@@ -88,6 +78,74 @@ pub struct SimulateArgs {
     /// Probability that a judgement is missing.
     #[arg(long, default_value_t = 0.0)]
     pub missing: f64,
+    /// Believability shift (scale points) of the raters of every group after the first (exp3, exp4).
+    #[arg(long, default_value_t = 0.0)]
+    pub group_difference: f64,
+}
+
+impl ModelArgs {
+    /// The simulation options of this model with `seed`, `coders` and `participants`.
+    fn options(&self, seed: u64, coders: usize, participants: usize) -> anyhow::Result<SimOptions> {
+        for (name, p) in [("accuracy", self.accuracy), ("false-positive", self.false_positive), ("missing", self.missing)] {
+            anyhow::ensure!((0.0..=1.0).contains(&p), "--{name} must be a probability in [0, 1], got {p}");
+        }
+        anyhow::ensure!(self.group_difference.is_finite() && self.group_difference.abs() <= 5.0, "--group-difference must be between -5 and 5 scale points, got {}", self.group_difference);
+        Ok(SimOptions {
+            design: match self.design {
+                DesignArg::Exp1 => Design::Exp1,
+                DesignArg::Exp2 => Design::Exp2,
+                DesignArg::Exp3 => Design::Exp3,
+                DesignArg::Exp4 => Design::Exp4,
+            },
+            seed,
+            coders,
+            participants,
+            identities: self.identities,
+            accuracy: self.accuracy,
+            false_positive: self.false_positive,
+            confusion: match self.confusion {
+                ConfusionArg::Similar => Confusion::Similar,
+                ConfusionArg::Uniform => Confusion::Uniform,
+            },
+            groups: self.groups.iter().map(|g| g.trim().to_string()).filter(|g| !g.is_empty()).collect(),
+            missing: self.missing,
+            group_difference: self.group_difference,
+        })
+    }
+}
+
+#[derive(Args)]
+pub struct SimulateArgs {
+    #[command(flatten)]
+    pub model: ModelArgs,
+    /// Output directory for responses.csv and manifest.csv.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Coders (exp1, exp2).
+    #[arg(long, default_value_t = 3)]
+    pub coders: usize,
+    /// Raters per media × intensity condition (exp3, exp4).
+    #[arg(long, default_value_t = 20)]
+    pub participants: usize,
+}
+
+#[derive(Args)]
+pub struct PowerArgs {
+    #[command(flatten)]
+    pub model: ModelArgs,
+    /// Output directory for power.csv, power.json and power.png.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Sample sizes (comma-separated): coders (exp1, exp2) or raters per condition (exp3, exp4).
+    #[arg(long, value_delimiter = ',', default_value = "3,5,10,20")]
+    pub sizes: Vec<usize>,
+    /// Simulated studies per size.
+    #[arg(long, default_value_t = 200)]
+    pub runs: usize,
 }
 
 pub fn analyze(args: AnalyzeArgs) -> anyhow::Result<()> {
@@ -103,29 +161,7 @@ pub fn analyze(args: AnalyzeArgs) -> anyhow::Result<()> {
 }
 
 pub fn simulate(args: SimulateArgs) -> anyhow::Result<()> {
-    for (name, p) in [("accuracy", args.accuracy), ("false-positive", args.false_positive), ("missing", args.missing)] {
-        anyhow::ensure!((0.0..=1.0).contains(&p), "--{name} must be a probability in [0, 1], got {p}");
-    }
-    let options = SimOptions {
-        design: match args.design {
-            DesignArg::Exp1 => Design::Exp1,
-            DesignArg::Exp2 => Design::Exp2,
-            DesignArg::Exp3 => Design::Exp3,
-            DesignArg::Exp4 => Design::Exp4,
-        },
-        seed: args.seed,
-        coders: args.coders,
-        participants: args.participants,
-        identities: args.identities,
-        accuracy: args.accuracy,
-        false_positive: args.false_positive,
-        confusion: match args.confusion {
-            ConfusionArg::Similar => Confusion::Similar,
-            ConfusionArg::Uniform => Confusion::Uniform,
-        },
-        groups: args.groups.iter().map(|g| g.trim().to_string()).filter(|g| !g.is_empty()).collect(),
-        missing: args.missing,
-    };
+    let options = args.model.options(args.seed, args.coders, args.participants)?;
     let (manifest, responses) = run_simulation(&options);
     std::fs::create_dir_all(&args.output).with_context(|| format!("creating {}", args.output.display()))?;
     for (name, text) in [("manifest.csv", manifest), ("responses.csv", responses)] {
@@ -133,6 +169,24 @@ pub fn simulate(args: SimulateArgs) -> anyhow::Result<()> {
         std::fs::write(&path, text).with_context(|| format!("writing {}", path.display()))?;
     }
     eprintln!("wrote {}/manifest.csv and responses.csv", args.output.display());
+    Ok(())
+}
+
+/// Expected CI widths and t-test power over sample sizes, from repeated seeded simulations.
+pub fn power(args: PowerArgs) -> anyhow::Result<()> {
+    let model = args.model.options(args.seed, 0, 0)?;
+    crate::analysis::power::check(&args.sizes, args.runs)?;
+    let started = std::time::Instant::now();
+    let bar = crate::progress::bar((args.runs * args.sizes.len()) as u64, "studies", "simulating and analysing");
+    let table = crate::analysis::power::run(&model, &args.sizes, args.runs, &|| bar.inc(1))?;
+    bar.finish_and_clear();
+    std::fs::create_dir_all(&args.output).with_context(|| format!("creating {}", args.output.display()))?;
+    for (name, bytes) in crate::report::power::files(&table)? {
+        let path = args.output.join(&name);
+        std::fs::write(&path, bytes).with_context(|| format!("writing {}", path.display()))?;
+    }
+    let studies = args.runs * args.sizes.len();
+    eprintln!("analysed {studies} simulated studies in {:.1} s; wrote {}/power.csv, power.json and power.png", started.elapsed().as_secs_f64(), args.output.display());
     Ok(())
 }
 

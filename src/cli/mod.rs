@@ -182,6 +182,10 @@ enum Command {
     #[command(after_help = "Examples:\n  facslab simulate --design exp1 --seed 1 -o sim1           # 3 coders, 49 single AUs\n  facslab simulate --design exp2 --accuracy 0.8 -o sim2       # 54 AU combinations\n  facslab simulate --design exp3 --participants 40 --groups local,amt --missing 0.02 -o sim3\n\nWrites DIR/responses.csv and DIR/manifest.csv; the same options give the same bytes.")]
     Simulate(analysis::SimulateArgs),
 
+    /// Plan a validation study: expected 95 % CI widths and t-test power over sample sizes.
+    #[command(after_help = "Examples:\n  facslab power --design exp1 --sizes 3,5,10,20 --runs 200 -o power1        # how many FACS coders\n  facslab power --design exp3 --sizes 5,10,20,40 --runs 100 --group-difference 0.3 -o power3\n  facslab power --design exp1 --accuracy 0.7 --confusion uniform --sizes 5,10 --runs 50 -o p\n\nFor each size (coders for exp1/exp2, raters per media x intensity condition for exp3) it\nsimulates RUNS studies with seeds derived from --seed, analyses each as `facslab analyze`\nwould, and writes OUTPUT/power.csv, power.json and power.png: per statistic (per-AU F1,\nrecognition rate, believability mean, the believability t-test between the first two groups)\nthe mean reported 95% CI width beside the 2.5-97.5% spread of the estimates over the runs\n(they agree when the CI is calibrated), and the t-test's power (share of runs with p < .05)\nfor the assumed --group-difference. Bounds: 2-2000 runs, 1-20 sizes of 2-500, runs x sum of\nsizes <= 400000. The same options give the same bytes.")]
+    Power(analysis::PowerArgs),
+
     /// Convert a response file or a manifest between CSV and Parquet (needs the `polars` feature).
     #[command(after_help = "Examples:\n  facslab convert sim/responses.csv -o responses.parquet\n  facslab convert sim/manifest.csv -o manifest.parquet\n  facslab convert responses.parquet -o responses.csv\n  facslab analyze --responses responses.parquet --manifest manifest.parquet -o report\n\nThe direction follows the extensions (.parquet or CSV). A column is stored as Int64 or\nFloat64 when every cell converts back to the same text, else as String; empty cells are\nnulls. Converting back gives every cell exactly. Needs facslab built with\n`cargo build --release --features polars`; without it the command says so and stops.")]
     Convert(analysis::ConvertArgs),
@@ -530,6 +534,7 @@ fn dispatch(command: Command) -> anyhow::Result<()> {
         }
         Command::Analyze(args) => analysis::analyze(args),
         Command::Simulate(args) => analysis::simulate(args),
+        Command::Power(args) => analysis::power(args),
         Command::Convert(args) => analysis::convert(args),
     }
 }

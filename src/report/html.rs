@@ -49,10 +49,21 @@ struct ConditionPage {
 struct RatingPage {
     conditions: Vec<ConditionPage>,
     table11: Option<PageTable>,
+    icc: Option<PageTable>,
+    design: DesignPage,
     believability_plot: Option<Figure>,
     anova: Option<PageTable>,
     group_tests: Option<PageTable>,
     table14: Option<PageTable>,
+}
+
+/// The statistics the design calls for (tables without rows are absent).
+#[derive(Serialize)]
+struct DesignPage {
+    rm_anova: Option<PageTable>,
+    paired: Option<PageTable>,
+    between: Option<PageTable>,
+    post_hoc: Option<PageTable>,
 }
 
 /// What the template gets: the report (for the prose) and the tables' page views.
@@ -107,6 +118,13 @@ impl Views<'_> {
         Ok(RatingPage {
             conditions,
             table11: self.table("table11_ratings.csv", &[])?,
+            icc: self.table("icc.csv", &[])?,
+            design: DesignPage {
+                rm_anova: self.table("rm_anova_emotion.csv", &[])?,
+                paired: self.table("paired_tests.csv", &[])?,
+                between: self.table("anova_between_conditions.csv", &[])?,
+                post_hoc: self.table("post_hoc_conditions.csv", &[])?,
+            },
             believability_plot: self.plot("plot_believability.png"),
             anova: self.table("anova.csv", &[])?,
             group_tests: self.table("group_tests.csv", &[])?,

@@ -9,6 +9,7 @@
 
 mod html;
 mod plots;
+pub mod power;
 pub mod table;
 mod tables;
 

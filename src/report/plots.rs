@@ -6,6 +6,7 @@ use plotters::prelude::*;
 use plotters::style::FontStyle;
 
 use super::{Report, ReportError};
+use crate::analysis::power::{PowerRow, PowerTable};
 use crate::engine::image::RgbImage;
 
 const FONT: &str = "facslab-sans";
@@ -168,6 +169,65 @@ fn believability(name: &str, labels: &[String], series: &[(String, Vec<Option<(f
             .position(SeriesLabelPosition::LowerRight)
             .draw()
             .map_err(|e| e.to_string())?;
+        Ok(())
+    })
+}
+
+/// One line of the power plot: a label and its (size, value) points.
+type Series = (String, Vec<(f64, f64)>);
+
+/// The (size, value) points of the `mean` rows (or the only row) of each statistic.
+fn power_series(table: &PowerTable, value: fn(&PowerRow) -> Option<f64>) -> Vec<Series> {
+    let mut statistics: Vec<&str> = Vec::new();
+    for r in &table.rows {
+        if !statistics.contains(&r.statistic.as_str()) {
+            statistics.push(&r.statistic);
+        }
+    }
+    statistics
+        .into_iter()
+        .map(|s| {
+            let rows: Vec<&PowerRow> = table.rows.iter().filter(|r| r.statistic == s).collect();
+            let headline = |r: &&&PowerRow| r.item == "mean" || !rows.iter().any(|x| x.item == "mean");
+            (s.to_string(), rows.iter().filter(headline).filter_map(|r| Some((r.size as f64, value(r)?))).collect())
+        })
+        .filter(|(_, points): &Series| !points.is_empty())
+        .collect()
+}
+
+/// One panel of the power plot: a line with dots per series, and optionally crosses for a
+/// second value of the same series.
+fn power_panel(area: &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>, title: &str, y_desc: &str, x_max: f64, lines: &[Series], crosses: &[Series]) -> Result<(), String> {
+    let palette = [RGBColor(49, 130, 189), RGBColor(230, 85, 13), RGBColor(49, 163, 84), RGBColor(117, 107, 177)];
+    let y_max = lines.iter().chain(crosses).flat_map(|(_, p)| p.iter().map(|q| q.1)).fold(0.0f64, f64::max).max(0.05) * 1.15;
+    let mut chart = ChartBuilder::on(area).caption(title, font(16.0)).margin(12).x_label_area_size(40).y_label_area_size(52).build_cartesian_2d(0f64..x_max * 1.05, 0f64..y_max).map_err(|e| e.to_string())?;
+    chart.configure_mesh().max_light_lines(0).x_desc("sample size").y_desc(y_desc).label_style(font(11.0)).axis_desc_style(font(13.0)).draw().map_err(|e| e.to_string())?;
+    for (i, (label, points)) in lines.iter().enumerate() {
+        let colour = palette[i % palette.len()];
+        chart.draw_series(std::iter::once(PathElement::new(points.clone(), colour.stroke_width(2)))).map_err(|e| e.to_string())?.label(label.clone()).legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], colour.filled()));
+        chart.draw_series(points.iter().map(|&p| Circle::new(p, 4, colour.filled()))).map_err(|e| e.to_string())?;
+        if let Some((_, marks)) = crosses.iter().find(|(l, _)| l == label) {
+            chart.draw_series(marks.iter().map(|&p| Cross::new(p, 6, colour.stroke_width(2)))).map_err(|e| e.to_string())?;
+        }
+    }
+    chart.configure_series_labels().background_style(WHITE.mix(0.9)).border_style(BLACK).label_font(font(12.0)).position(SeriesLabelPosition::UpperRight).draw().map_err(|e| e.to_string())?;
+    Ok(())
+}
+
+/// `power.png`: mean 95 % CI width per statistic against size (line and dots), the 2.5–97.5 %
+/// spread of the estimates (crosses), and, when a t-test was simulated, its power.
+pub(super) fn power(table: &PowerTable) -> Result<Vec<u8>, ReportError> {
+    let widths = power_series(table, |r| Some(r.ci_width_mean));
+    let spreads = power_series(table, |r| Some(r.spread_width));
+    let powers = power_series(table, |r| r.power);
+    let x_max = table.sizes.iter().copied().max().unwrap_or(1) as f64;
+    let w = if powers.is_empty() { 640 } else { 1200 };
+    draw_png("power.png", w, 440, |root| {
+        let (left, right) = if powers.is_empty() { (root.clone(), None) } else { let (l, r) = root.split_horizontally(680); (l, Some(r)) };
+        power_panel(&left, "95% CI width (line) and spread of estimates (×)", "width", x_max, &widths, &spreads)?;
+        if let Some(right) = right {
+            power_panel(&right, &format!("t-test power, difference {}", table.group_difference), "power", x_max, &powers, &[])?;
+        }
         Ok(())
     })
 }

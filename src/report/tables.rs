@@ -5,6 +5,8 @@
 //! their names and columns (numbers unrounded, an undefined value empty); each table's page view
 //! names only its own fields.
 
+mod design;
+
 use super::Report;
 use super::table::{Cell, Column, Line, On, Pattern, Pivot, Row, Spread, Table, View};
 use crate::analysis::coding::{AuCount, CodingReport, Counts, Metrics};
@@ -58,7 +60,8 @@ pub(super) fn all(report: &Report) -> Vec<Table> {
         for (n, c) in r.conditions.iter().enumerate() {
             out.extend(confusion(n, c));
         }
-        out.extend([recognition(r), table11(r), group_tests(r), anova(r)]);
+        out.extend([recognition(r), table11(r), design::icc(r), group_tests(r), anova(r)]);
+        out.extend([design::rm_anova(r), design::paired(r), design::between(r), design::post_hoc(r)]);
         out.extend(table14(r));
     }
     if let Some(d) = &report.demographics {

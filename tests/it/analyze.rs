@@ -105,6 +105,22 @@ fn exp3_report_has_tables_6_to_11() {
     assert_eq!(rating["anova"].as_array().unwrap().len(), 4);
     let terms: Vec<&str> = rating["anova"][0]["type_ii"]["rows"].as_array().unwrap().iter().map(|r| r["term"].as_str().unwrap()).collect();
     assert_eq!(terms, ["emotion", "intensity", "emotion:intensity", "residual"], "terms named after the factors");
+    exp3_design_tests(dir.path(), rating);
+}
+
+/// Exp. 3 as simulated (each rater sees every emotion of one media × intensity condition): RM
+/// ANOVA over emotion and a one-way ANOVA between the condition groups, no paired test.
+fn exp3_design_tests(dir: &Path, rating: &Value) {
+    let design = &rating["design"];
+    assert_eq!(design["within_emotion"].as_array().unwrap().len(), 8, "4 conditions × recognition and believability");
+    assert_eq!(design["between_conditions"].as_array().unwrap().len(), 2);
+    assert!(design["paired"].as_array().unwrap().is_empty(), "separate groups: no paired test");
+    let html = std::fs::read_to_string(dir.join("report/report.html")).unwrap();
+    assert!(html.contains("Repeated-measures ANOVA over emotion") && html.contains("One-way ANOVA between the condition groups"));
+    assert!(!html.contains("Paired t-tests (the same"), "no paired table without a within-subject two-level factor");
+    assert!(html.contains("Intraclass correlation"));
+    let icc: Vec<Value> = rating["conditions"].as_array().unwrap().iter().map(|c| json!({"condition": c["key"], "alpha": c["scales"][0]["alpha"], "icc": c["scales"][0]["icc"]})).collect();
+    insta::assert_json_snapshot!("exp3_design_tests", round(&json!({"design": design, "icc": icc})));
 }
 
 #[test]

@@ -11,6 +11,7 @@ mod golden;
 mod psych_ds;
 mod render;
 mod server;
+mod power;
 mod stimuli;
 mod study;
 mod studio;

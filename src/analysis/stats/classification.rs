@@ -9,8 +9,34 @@
 //! - **macro** = unweighted mean of the per-class values (macro F1 is the mean of per-class F1,
 //!   not the F1 of macro P and R); **weighted** = mean weighted by support; **micro** = computed
 //!   from TP/FP/FN summed over classes (equals accuracy for single-label data over the full set).
+//! - [`f1_ci`]: Wald interval of one binary F1 by the delta method, conditional on the design's
+//!   positives P = TP + FN and negatives N = FP + TN (fixed by what was shown):
+//!   TP ~ Binomial(P, recall), FP ~ Binomial(N, false-positive rate), independent;
+//!   Var(F1) = 4[(P + FP)² Var(TP) + TP² Var(FP)] / (2TP + FP + FN)⁴ with the plug-in variances
+//!   TP·FN/P and FP·TN/N; F1 ± z·SD, clipped to [0, 1]. Zero width when both plug-in variances
+//!   are 0 (every positive found and no false positive, or no positive found).
+
+use statrs::distribution::{ContinuousCDF, Normal};
 
 use super::{Result, StatsError};
+
+/// Delta-method Wald CI of F1 = 2TP / (2TP + FP + FN) at `level` (see the module doc).
+pub fn f1_ci(tp: u64, fp: u64, fn_: u64, tn: u64, level: f64) -> Result<(f64, f64)> {
+    super::error::check_level("f1_ci", level)?;
+    let (tp, fp, fn_, tn) = (tp as f64, fp as f64, fn_ as f64, tn as f64);
+    let (positives, negatives, d) = (tp + fn_, fp + tn, 2.0 * tp + fp + fn_);
+    if positives == 0.0 || d == 0.0 {
+        return Err(StatsError::TooFewObservations { what: "F1 CI (positives)", needed: 1, got: 0 });
+    }
+    let var_tp = tp * fn_ / positives;
+    let var_fp = if negatives > 0.0 { fp * tn / negatives } else { 0.0 };
+    let var = 4.0 * ((positives + fp).powi(2) * var_tp + tp * tp * var_fp) / d.powi(4);
+    let z = Normal::new(0.0, 1.0)
+        .map_err(|e| StatsError::InvalidParameter { what: "normal distribution", detail: e.to_string() })?
+        .inverse_cdf(1.0 - (1.0 - level) / 2.0);
+    let f1 = 2.0 * tp / d;
+    Ok(((f1 - z * var.sqrt()).max(0.0), (f1 + z * var.sqrt()).min(1.0)))
+}
 
 /// Confusion counts over an ordered label set; `counts[true][predicted]`.
 #[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]
@@ -206,6 +232,18 @@ impl ConfusionMatrix {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn f1_ci_by_the_delta_method_by_hand() {
+        // TP 8, FN 2 (P = 10), FP 1, TN 39 (N = 40): F1 = 16/19; Var(TP) = 1.6, Var(FP) = 0.975;
+        // Var(F1) = 4 (11² · 1.6 + 8² · 0.975) / 19⁴ = 1024 / 130321; z(0.975) = 1.959963984540054.
+        let (low, high) = f1_ci(8, 1, 2, 39, 0.95).unwrap();
+        let half = 1.959963984540054 * (1024f64 / 130321.0).sqrt();
+        assert!((low - (16.0 / 19.0 - half)).abs() < 1e-12 && (high - (16.0 / 19.0 + half).min(1.0)).abs() < 1e-12, "{low} {high}");
+        // Perfect recall and no false positive: no sampling variance in the plug-in, zero width.
+        assert_eq!(f1_ci(5, 0, 0, 10, 0.95).unwrap(), (1.0, 1.0));
+        assert!(f1_ci(0, 3, 0, 10, 0.95).is_err(), "no positives");
+    }
     use crate::analysis::stats::test_support::*;
 
     fn cm() -> ConfusionMatrix {
