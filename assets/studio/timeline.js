@@ -13,7 +13,7 @@
 const HANDLES = [["onset starts", "onset start"], ["apex starts", "apex start"], ["apex ends", "apex end"], ["offset ends", "offset end"]];
 const SIDE_NAMES = { B: "both", L: "left", R: "right" };
 const SNAP_S = 0.05;
-const LANE_HEIGHT = 56;
+const LANE_HEIGHT = 46;
 
 const editor = {
   fps: 30,
@@ -192,7 +192,8 @@ function trackRow(tr, row) {
     ? `<select class="side" aria-label="AU${tr.au} side">${Object.entries(SIDE_NAMES).map(([k, v]) => `<option value="${k}"${k === tr.side ? " selected" : ""}>${v}</option>`).join("")}</select>`
     : "";
   const ramps = ["linear", "smoothstep", "cosine"].map((r) => `<option${r === tr.ramp ? " selected" : ""}>${r}</option>`).join("");
-  const times = HANDLES.map(([label], h) => `<label>${label} <input type="number" class="time" data-handle="${h}" min="0" step="${SNAP_S}" value="${tr.t[h]}"></label>`).join("");
+  const arrows = ["", "↗", "–", "↘"];
+  const times = HANDLES.map(([label], h) => `${arrows[h] ? `<span aria-hidden="true">${arrows[h]}</span>` : ""}<input type="number" class="time" data-handle="${h}" min="0" step="${SNAP_S}" value="${tr.t[h]}" aria-label="AU${tr.au} ${label} (s)" title="${label} (s)">`).join("");
   div.innerHTML = `<div class="track-head">
       <span class="track-name" title="${unit.appearance.replace(/"/g, "&quot;")}"><b>AU${tr.au}</b> ${unit.name}</span>
       <button type="button" class="remove" aria-label="Remove the AU${tr.au} track" title="Remove this track">✕</button>
@@ -201,7 +202,7 @@ function trackRow(tr, row) {
         <select class="ramp" aria-label="AU${tr.au} ramp shape">${ramps}</select></span>
     </div>
     <svg class="lane" height="${LANE_HEIGHT}" aria-label="AU${tr.au} over time"></svg>
-    <div class="times">${times}</div>`;
+    <div class="times"><span class="times-label">seconds</span>${times}</div>`;
   return div;
 }
 
@@ -230,6 +231,13 @@ function drawTracks() {
     box.append(head);
   }
   editor.tracks.forEach((tr, row) => box.append(trackRow(tr, row)));
+  drawAxis();
+  editor.tracks.forEach((_, row) => drawLane(row));
+}
+
+// Fits the axis to the clip again and redraws the lanes (the rows and their fields stay).
+function rescale() {
+  editor.axisMax = axisFor(durationS());
   drawAxis();
   editor.tracks.forEach((_, row) => drawLane(row));
 }
@@ -270,7 +278,11 @@ function onPointerDown(e) {
   const knob = e.target.closest(".handle");
   if (!knob && !e.target.closest(".body, .shape")) return;
   e.preventDefault();
-  lane.setPointerCapture(e.pointerId);
+  try {
+    lane.setPointerCapture(e.pointerId);
+  } catch {
+    // a synthetic event has no pointer to capture; the drag still works inside the lane
+  }
   stopPlaying();
   editor.dragging = { row, handle: knob ? Number(knob.dataset.handle) : -1, from: laneTime(lane, e.clientX), start: [...editor.tracks[row].t] };
 }
@@ -289,7 +301,7 @@ function onPointerMove(e) {
 function onPointerUp() {
   if (!editor.dragging) return;
   editor.dragging = null;
-  drawTracks();
+  rescale();
   timelineChanged();
 }
 
@@ -318,7 +330,7 @@ function onTrackInput(e) {
   else if (e.target.classList.contains("side")) tr.side = e.target.value;
   else return;
   stopPlaying();
-  if (e.type === "change") drawTracks();
+  if (e.type === "change") rescale();
   else drawLane(row);
   timelineChanged();
 }
@@ -388,8 +400,13 @@ function showTimelineError(err) {
     const el = field && div.querySelector(field);
     if (el) el.classList.add("invalid");
   }
-  const where = div ? `Track ${row + 1} (AU${editor.tracks[row].au}), ${handle !== undefined ? HANDLES[handle][1] : err.key.replace("_", " ")}: ` : "";
-  $("timeline-error").textContent = where + err.error;
+  if (!div) {
+    $("timeline-error").textContent = err.error;
+    return;
+  }
+  const what = handle !== undefined ? HANDLES[handle][1] : { start_intensity: "peak", end_intensity: "peak", side: "side", au: "AU" }[err.key] || err.key;
+  const message = err.error.replace(/^`timeline`: track \d+ \(AU \d+\): /, "");
+  $("timeline-error").textContent = `Track ${row + 1} (AU${editor.tracks[row].au}), ${what}: ${message} (timeline JSON track ${err.track})`;
 }
 
 function sleep(ms) {
@@ -477,5 +494,5 @@ function wireTimeline() {
   $("scrub").addEventListener("input", onScrub);
   $("play").addEventListener("click", play);
   $("make-mp4").addEventListener("click", makeMp4);
-  window.addEventListener("resize", () => { drawAxis(); editor.tracks.forEach((_, row) => drawLane(row)); });
+  window.addEventListener("resize", rescale);
 }
