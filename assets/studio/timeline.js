@@ -374,8 +374,8 @@ function movePlayhead() {
   $("scrub-label").textContent = `frame ${frame} of ${frameCount()} · ${seconds.toFixed(2)} s`;
 }
 
-// Renders frame `frame` and shows it unless a newer picture was asked for meanwhile; resolves
-// either way.
+// Renders frame `frame` and shows it unless a newer picture was asked for meanwhile; resolves to
+// what `showImage` does (true, false, or the refusal).
 async function showFrame(frame) {
   movePlayhead();
   const body = { timeline: timelineObject(), frame, ...look() };
@@ -384,6 +384,7 @@ async function showFrame(frame) {
   });
   if (shown === true) showTimelineError(null);
   else if (shown && shown.field === "timeline") showTimelineError(shown);
+  return shown;
 }
 
 function showTimelineError(err) {
@@ -426,8 +427,9 @@ async function play() {
   let shownCount = 0;
   while (editor.playing) {
     $("scrub").value = String(frame);
-    await showFrame(frame);
-    shownCount++;
+    const shown = await showFrame(frame);
+    if (shown !== true && shown !== false) break; // refused: the error is on screen
+    shownCount += shown ? 1 : 0;
     if (!editor.playing || frame >= frames - 1) break;
     const due = Math.floor(((performance.now() - started) / 1000) * editor.fps);
     frame = Math.min(frames - 1, Math.max(frame + 1, due));
