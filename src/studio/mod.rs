@@ -3,8 +3,8 @@
 //! In: HTTP requests: the editor page and its script, JSON render requests
 //! (`POST /api/v1/render`), and expression updates over a WebSocket (`GET /api/v1/stream`).
 //! Out: the page, PNG stills and MP4 videos rendered by the engine, JSON lists of the catalog,
-//! people and presets the page is built from, and JSON errors that name the field and, for FACS
-//! notation, the token at fault.
+//! people, presets and CPT sequences the page is built from, and JSON errors that name the field
+//! and, for FACS notation, the token at fault (for a timeline, the track and its field).
 //!
 //! Invariants: a render request gives the bytes `facslab render` writes for the same expression,
 //! person and size (or timeline); every input is bounded before anything is allocated

@@ -5,7 +5,7 @@
 //! `{"timeline": {…}}` (the JSON `facslab render --export-timeline` writes) for an MP4.
 //! Out: a [`Job`] whose [`Job::render`] gives exactly the bytes `facslab render` writes for the
 //! same input, or a [`RequestError`] naming the field (and, for FACS notation, the token and its
-//! column).
+//! column; for a timeline, the track and the timeline field at fault, see [`timeline_place`]).
 //! Invariant: lengths, sizes and frame counts are checked here, before anything is allocated or
 //! rendered; messages quote at most a short excerpt of the input.
 
