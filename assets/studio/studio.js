@@ -1,5 +1,6 @@
 // facslab studio: sliders per Action Unit, FACS notation kept in step both ways, a live preview
 // rendered by the server (latest request wins), exports, undo/redo and the state in the URL.
+// The timeline editor is in timeline.js (loaded first; `wireTimeline` is called from `start`).
 "use strict";
 
 const LEVELS = [["A", 0.15], ["B", 0.30], ["C", 0.55], ["D", 0.85], ["E", 1.0]];
@@ -18,7 +19,6 @@ const state = {
   shown: 0,               // id of the newest preview shown
   inflight: null,         // AbortController of the preview request under way
   timer: 0,
-  timeline: null,         // the last clip's timeline JSON text
 };
 
 // ---- notation <-> pose ------------------------------------------------------------------
@@ -200,6 +200,7 @@ function saveUrl() {
   const compare = $("compare-identity").value;
   if (compare) params.set("c", compare);
   if ($("show-neutral").checked) params.set("n", "1");
+  if (editor.tracks.length) params.set("tl", timelineParam());
   history.replaceState(null, "", "#" + params.toString());
 }
 
@@ -216,6 +217,7 @@ function loadUrl() {
   $("grayscale").checked = params.get("g") === "1";
   $("identity").value = state.identity;
   $("size").value = state.size;
+  loadTimelineParam(params.get("tl"));
   return params.get("e") || "0";
 }
 
@@ -240,37 +242,48 @@ async function renderPng(body, signal) {
   return response.blob();
 }
 
-async function preview() {
+// Renders `body` and puts it in the main picture unless a newer picture was asked for meanwhile
+// (a new request cancels the one under way, stills and timeline frames alike). Resolves to true
+// when shown, false when overtaken, or the refusal ({error, field, …}) when the server refused.
+async function showImage(body, caption, mark) {
   const id = ++state.requested;
   if (state.inflight) state.inflight.abort();
   const controller = new AbortController();
   state.inflight = controller;
-  const body = { expression: state.notation, identity: state.identity, size: state.size, ...look() };
   const started = performance.now();
   $("status").textContent = "rendering…";
   try {
     const blob = await renderPng(body, controller.signal);
-    if (id < state.shown) return; // an older pose never replaces a newer one
+    if (id < state.shown) return false; // an older picture never replaces a newer one
     state.shown = id;
     const url = URL.createObjectURL(blob);
     const img = $("image");
     if (img.src.startsWith("blob:")) URL.revokeObjectURL(img.src);
     img.src = url;
-    img.dataset.expression = body.expression;
     img.dataset.request = String(id);
-    $("download-png").href = url;
-    $("download-png").download = `${body.identity}_${body.expression.replace(/[^0-9A-Za-z@.+]/g, "_")}.png`;
-    $("caption").textContent = `${body.identity}: ${body.expression}`;
+    delete img.dataset.frame;
+    mark(img, url);
+    $("caption").textContent = caption;
     $("status").textContent = `rendered in ${Math.round(performance.now() - started)} ms`;
-    previewCompare(body);
+    return true;
   } catch (err) {
-    if (err.name === "AbortError") return;
-    $("status").textContent = "";
-    if (err.token !== undefined) showError({ token: err.token, column: err.column, error: err.error });
-    else $("status").textContent = err.message;
+    if (err.name === "AbortError") return false;
+    $("status").textContent = err.token === undefined ? err.message : "";
+    return err;
   } finally {
     if (state.inflight === controller) state.inflight = null;
   }
+}
+
+async function preview() {
+  const body = { expression: state.notation, identity: state.identity, size: state.size, ...look() };
+  const shown = await showImage(body, `${body.identity}: ${body.expression}`, (img, url) => {
+    img.dataset.expression = body.expression;
+    $("download-png").href = url;
+    $("download-png").download = `${body.identity}_${body.expression.replace(/[^0-9A-Za-z@.+]/g, "_")}.png`;
+  });
+  if (shown === true) previewCompare(body);
+  else if (shown && shown.token !== undefined) showError({ token: shown.token, column: shown.column, error: shown.error });
 }
 
 async function previewCompare(body) {
@@ -290,61 +303,6 @@ async function previewCompare(body) {
   }
 }
 
-// ---- clip export ------------------------------------------------------------------------
-
-async function makeClip() {
-  const timing = { onset_s: Number($("onset").value), apex_s: Number($("apex").value), offset_s: Number($("offset").value), ramp: $("ramp").value };
-  const response = await fetch("api/v1/timeline", {
-    method: "POST",
-    headers: { "Content-Type": "application/json" },
-    body: JSON.stringify({ expression: state.notation, identity: state.identity, size: state.size, timing }),
-  });
-  const text = await response.text();
-  if (!response.ok) {
-    $("status").textContent = JSON.parse(text).error;
-    return;
-  }
-  state.timeline = text;
-  const timeline = JSON.parse(text);
-  const frames = Math.round(timeline.duration_s * timeline.fps);
-  $("clip").hidden = false;
-  $("scrub").max = String(Math.max(frames - 1, 0));
-  $("scrub").value = "0";
-  $("download-timeline").href = URL.createObjectURL(new Blob([text], { type: "application/json" }));
-  $("download-mp4").hidden = true;
-  scrub();
-}
-
-async function scrub() {
-  const frame = Number($("scrub").value);
-  const fps = JSON.parse(state.timeline).fps;
-  $("scrub-label").textContent = `frame ${frame} (${(frame / fps).toFixed(2)} s)`;
-  try {
-    const blob = await renderPng({ timeline: JSON.parse(state.timeline), frame, ...look() });
-    if (Number($("scrub").value) !== frame) return;
-    $("image").src = URL.createObjectURL(blob);
-    $("caption").textContent = `${state.identity}: clip frame ${frame}`;
-  } catch (err) {
-    $("status").textContent = err.message;
-  }
-}
-
-async function makeMp4() {
-  $("status").textContent = "rendering the video…";
-  const response = await fetch("api/v1/render", {
-    method: "POST",
-    headers: { "Content-Type": "application/json" },
-    body: JSON.stringify({ timeline: JSON.parse(state.timeline), ...look() }),
-  });
-  if (!response.ok) {
-    $("status").textContent = (await response.json()).error;
-    return;
-  }
-  $("download-mp4").href = URL.createObjectURL(await response.blob());
-  $("download-mp4").hidden = false;
-  $("status").textContent = "video ready";
-}
-
 // ---- wiring -----------------------------------------------------------------------------
 
 function wire() {
@@ -357,8 +315,8 @@ function wire() {
   $("notation").addEventListener("change", (e) => {
     if (!parseNotation(e.target.value).error) setNotation(e.target.value.trim() || "0", true, true);
   });
-  $("identity").addEventListener("change", (e) => { state.identity = e.target.value; setNotation(state.notation, false, false); });
-  $("size").addEventListener("change", (e) => { state.size = e.target.value; setNotation(state.notation, false, false); });
+  $("identity").addEventListener("change", (e) => { state.identity = e.target.value; setNotation(state.notation, false, false); timelineChanged(true); });
+  $("size").addEventListener("change", (e) => { state.size = e.target.value; setNotation(state.notation, false, false); timelineChanged(true); });
   $("preset").addEventListener("change", (e) => {
     if (!e.target.value) return;
     $("notation").value = e.target.value;
@@ -375,9 +333,6 @@ function wire() {
   $("show-neutral").addEventListener("change", () => setNotation(state.notation, false, false));
   for (const id of ["backdrop", "light", "grayscale"]) $(id).addEventListener("change", () => setNotation(state.notation, false, false));
   $("compare-identity").addEventListener("change", () => setNotation(state.notation, false, false));
-  $("make-clip").addEventListener("click", makeClip);
-  $("scrub").addEventListener("input", scrub);
-  $("make-mp4").addEventListener("click", makeMp4);
   $("copy-link").addEventListener("click", () => navigator.clipboard && navigator.clipboard.writeText(location.href));
   window.addEventListener("hashchange", () => {
     const notation = loadUrl();
@@ -389,6 +344,7 @@ function wire() {
     if ((e.ctrlKey || e.metaKey) && e.key.toLowerCase() === "z" && !typing) { e.preventDefault(); e.shiftKey ? redo() : undo(); }
     if ((e.ctrlKey || e.metaKey) && e.key.toLowerCase() === "y" && !typing) { e.preventDefault(); redo(); }
     if (e.key === "/" && !typing) { e.preventDefault(); $("search").focus(); }
+    if (e.key === " " && !typing && !document.activeElement.closest("button, a, .handle") && editor.tracks.length) { e.preventDefault(); play(); }
   });
 }
 
@@ -403,6 +359,7 @@ async function start() {
   state.identity = state.catalog.defaults.identity;
   buildSliders();
   wire();
+  wireTimeline();
   const notation = loadUrl();
   $("notation").value = notation;
   setNotation(notation, false, true);

@@ -3,8 +3,8 @@
 //! In: HTTP requests: the editor page and its script, JSON render requests
 //! (`POST /api/v1/render`), and expression updates over a WebSocket (`GET /api/v1/stream`).
 //! Out: the page, PNG stills and MP4 videos rendered by the engine, JSON lists of the catalog,
-//! people and presets the page is built from, and JSON errors that name the field and, for FACS
-//! notation, the token at fault.
+//! people, presets and CPT sequences the page is built from, and JSON errors that name the field
+//! and, for FACS notation, the token at fault (for a timeline, the track and its field).
 //!
 //! Invariants: a render request gives the bytes `facslab render` writes for the same expression,
 //! person and size (or timeline); every input is bounded before anything is allocated
@@ -27,7 +27,8 @@ use tokio::sync::Semaphore;
 use tower_http::set_header::SetResponseHeaderLayer;
 
 use crate::engine::identity::IdentityTable;
-use crate::facs::{Catalog, EmotionTable};
+use crate::engine::timeline::{ClipTiming, DEFAULT_FPS};
+use crate::facs::{AppraisalTable, Catalog, EmotionTable};
 pub use request::{Job, RenderRequest, Rendered, RequestError};
 
 /// Renders running at once; each uses every core, so more would only queue inside rayon.
@@ -59,6 +60,7 @@ impl StudioState {
 
 const PAGE: &str = include_str!("../../assets/studio/index.html");
 const SCRIPT: &str = include_str!("../../assets/studio/studio.js");
+const TIMELINE_SCRIPT: &str = include_str!("../../assets/studio/timeline.js");
 const STYLE: &str = include_str!("../../assets/studio/studio.css");
 
 /// The studio's routes (the page, its assets and the API) at the root, for `facslab studio`.
@@ -74,6 +76,7 @@ pub fn router_at<S: Clone + Send + Sync + 'static>(base: &str, state: StudioStat
     Router::new()
         .route(&at("/"), get(|| async { Html(PAGE) }))
         .route(&at("/studio.js"), get(|| async { ([(header::CONTENT_TYPE, "text/javascript; charset=utf-8")], SCRIPT) }))
+        .route(&at("/timeline.js"), get(|| async { ([(header::CONTENT_TYPE, "text/javascript; charset=utf-8")], TIMELINE_SCRIPT) }))
         .route(&at("/studio.css"), get(|| async { ([(header::CONTENT_TYPE, "text/css; charset=utf-8")], STYLE) }))
         .route(&at("/api/v1/catalog"), get(catalog))
         .route(&at("/api/v1/render"), post(render))
@@ -97,9 +100,15 @@ pub async fn serve(addr: SocketAddr, on_ready: impl FnOnce(SocketAddr)) -> std::
         .await
 }
 
-/// Everything the page is built from: the AUs by region, the people, the EmFACS presets and
-/// the defaults.
 async fn catalog() -> Json<serde_json::Value> {
+    Json(catalog_json())
+}
+
+/// Everything the page is built from: the AUs by region, the people, the EmFACS presets, the
+/// CPT appraisal sequences (each check's AU groups in time order, as `cpt = [..]` in a set spec
+/// plays them; the table is validated against the catalog when it loads), the HapFACS clip
+/// timing and the defaults.
+pub fn catalog_json() -> serde_json::Value {
     let aus: Vec<serde_json::Value> = Catalog::built_in()
         .iter()
         .map(|u| {
@@ -113,13 +122,18 @@ async fn catalog() -> Json<serde_json::Value> {
         IdentityTable::active().iter().map(|p| serde_json::json!({ "id": p.id, "description": p.description })).collect();
     let presets: Vec<serde_json::Value> =
         EmotionTable::built_in().iter().map(|e| serde_json::json!({ "label": e.label, "expression": e.expression.to_string() })).collect();
+    let sequences: Vec<serde_json::Value> = AppraisalTable::built_in()
+        .iter()
+        .map(|c| serde_json::json!({ "name": c.name, "steps": c.steps.iter().map(|s| s.to_string()).collect::<Vec<_>>() }))
+        .collect();
     let (width, height) = crate::engine::DEFAULT_SIZE;
-    Json(serde_json::json!({
-        "aus": aus, "people": people, "presets": presets,
+    serde_json::json!({
+        "aus": aus, "people": people, "presets": presets, "sequences": sequences,
+        "clip": { "timing": ClipTiming::default(), "fps": DEFAULT_FPS },
         "defaults": { "identity": request::DEFAULT_IDENTITY, "size": format!("{width}x{height}") },
         "backdrops": ["grey", "black", "transparent"], "lights": ["studio", "soft", "dramatic"],
         "limits": { "expression_bytes": crate::facs::MAX_NOTATION_LEN, "side": request::MAX_SIDE, "video_frames": request::MAX_VIDEO_FRAMES },
-    }))
+    })
 }
 
 /// `POST /api/v1/render`: JSON in, PNG or MP4 out.
@@ -156,5 +170,26 @@ impl IntoResponse for RequestError {
             _ => StatusCode::UNPROCESSABLE_ENTITY,
         };
         (status, Json(self.to_json())).into_response()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_catalog_offers_the_cpt_sequences_step_by_step() {
+        let json = catalog_json();
+        let sequences = json["sequences"].as_array().unwrap();
+        assert_eq!(sequences.len(), AppraisalTable::built_in().iter().count());
+        assert_eq!(sequences[0], serde_json::json!({ "name": "novelty", "steps": ["1+2+5", "4+7+26+38"] }));
+        let high_power = sequences.iter().find(|s| s["name"] == "control_high_power").unwrap();
+        assert_eq!(high_power["steps"], serde_json::json!(["4+5", "7+23+25", "23+24+38"]));
+        for sequence in sequences {
+            for step in sequence["steps"].as_array().unwrap() {
+                Catalog::built_in().parse(step.as_str().unwrap()).unwrap();
+            }
+        }
+        assert_eq!(json["clip"], serde_json::json!({ "timing": { "onset_s": 1.0, "apex_s": 1.0, "offset_s": 1.0, "ramp": "linear" }, "fps": 30 }));
     }
 }

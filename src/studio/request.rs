@@ -5,7 +5,7 @@
 //! `{"timeline": {…}}` (the JSON `facslab render --export-timeline` writes) for an MP4.
 //! Out: a [`Job`] whose [`Job::render`] gives exactly the bytes `facslab render` writes for the
 //! same input, or a [`RequestError`] naming the field (and, for FACS notation, the token and its
-//! column).
+//! column; for a timeline, the track and the timeline field at fault, see [`timeline_place`]).
 //! Invariant: lengths, sizes and frame counts are checked here, before anything is allocated or
 //! rendered; messages quote at most a short excerpt of the input.
 
@@ -13,7 +13,7 @@ use serde::Deserialize;
 
 use crate::engine::identity::{Identity, IdentityTable};
 use crate::engine::look::{Backdrop, Look, LookError};
-use crate::engine::timeline::{ClipTiming, Timeline};
+use crate::engine::timeline::{ClipTiming, Timeline, TimelineError};
 use crate::engine::{self, FrameSettings};
 use crate::facs::{Catalog, Expression, MAX_NOTATION_LEN};
 
@@ -94,6 +94,10 @@ pub enum RequestError {
     Json(String),
     #[error("`{field}`: {message}")]
     Field { field: &'static str, message: String },
+    /// A timeline that fails validation: `key` is the field of the timeline JSON at fault and
+    /// `track` the (1-based) entry of `tracks` when the fault is in one.
+    #[error("`timeline`: {message}")]
+    Timeline { track: Option<usize>, key: &'static str, message: String },
     #[error("expression: token \"{token}\" at column {column}: {message}")]
     Notation { token: String, column: usize, message: String },
     #[error("the render failed: {0}")]
@@ -107,11 +111,20 @@ impl RequestError {
         RequestError::Field { field, message: message.into() }
     }
 
-    /// `{"error": "…", "field": "…", "token": "…", "column": n}` (the last three when known).
+    /// `{"error": "…", "field": "…", "token": "…", "column": n}` (the last three when known);
+    /// for a timeline, `"field": "timeline"` with `"key"` (the timeline's field, such as
+    /// `end_s`) and `"track"` (1-based) when the fault is in a track.
     pub fn to_json(&self) -> serde_json::Value {
         let mut json = serde_json::json!({ "error": self.to_string() });
         match self {
             RequestError::Field { field, .. } => json["field"] = (*field).into(),
+            RequestError::Timeline { track, key, .. } => {
+                json["field"] = "timeline".into();
+                json["key"] = (*key).into();
+                if let Some(track) = track {
+                    json["track"] = (*track).into();
+                }
+            }
             RequestError::Notation { token, column, .. } => {
                 json["field"] = "expression".into();
                 json["token"] = token.clone().into();
@@ -196,16 +209,41 @@ fn identity(id: Option<&str>) -> Result<&'static Identity, RequestError> {
         .map_err(|_| RequestError::field("identity", format!("no person \"{}\" (GET /api/v1/catalog lists them)", excerpt(id, 24))))
 }
 
+/// Where a validation error of a timeline is: the track (1-based) when it is in one, and the
+/// field of the timeline JSON (the one to correct: for times out of order, the end).
+pub fn timeline_place(error: &TimelineError) -> (Option<usize>, &'static str) {
+    match *error {
+        TimelineError::Fps(_) => (None, "fps"),
+        TimelineError::Duration(_) => (None, "duration_s"),
+        TimelineError::Tracks(_) => (None, "tracks"),
+        TimelineError::Size(..) => (None, "size"),
+        TimelineError::Json(_) => (None, "timeline"),
+        TimelineError::UnknownAu { track, .. } => (Some(track), "au"),
+        TimelineError::NotUnilateral { track, .. } => (Some(track), "side"),
+        TimelineError::Intensity { track, what: "start", .. } => (Some(track), "start_intensity"),
+        TimelineError::Intensity { track, .. } => (Some(track), "end_intensity"),
+        TimelineError::Times { track, start, .. } if !(start.is_finite() && start >= 0.0) => (Some(track), "start_s"),
+        TimelineError::Times { track, .. } => (Some(track), "end_s"),
+        TimelineError::Overlap { second, .. } => (Some(second), "start_s"),
+    }
+}
+
+fn timeline_error(error: TimelineError) -> RequestError {
+    let (track, key) = timeline_place(&error);
+    RequestError::Timeline { track, key, message: excerpt(&error.to_string(), 200) }
+}
+
 fn timeline(value: serde_json::Value) -> Result<Timeline, RequestError> {
-    let timeline = Timeline::from_json(&value.to_string()).map_err(|e| RequestError::field("timeline", excerpt(&e.to_string(), 200)))?;
-    timeline.validate(Catalog::built_in()).map_err(|e| RequestError::field("timeline", excerpt(&e.to_string(), 200)))?;
+    let timeline = Timeline::from_json(&value.to_string()).map_err(timeline_error)?;
+    timeline.validate(Catalog::built_in()).map_err(timeline_error)?;
+    let whole = |key, message| RequestError::Timeline { track: None, key, message };
     if timeline.size.iter().any(|side| *side > MAX_SIDE) {
-        return Err(RequestError::field("timeline", format!("size {}x{} is over {MAX_SIDE} on a side", timeline.size[0], timeline.size[1])));
+        return Err(whole("size", format!("size {}x{} is over {MAX_SIDE} on a side", timeline.size[0], timeline.size[1])));
     }
     if timeline.frame_count() > MAX_VIDEO_FRAMES {
-        return Err(RequestError::field("timeline", format!("{} frames is more than the {MAX_VIDEO_FRAMES} a request may render", timeline.frame_count())));
+        return Err(whole("duration_s", format!("{} frames is more than the {MAX_VIDEO_FRAMES} a request may render", timeline.frame_count())));
     }
-    identity(Some(&timeline.identity)).map_err(|_| RequestError::field("timeline", format!("no person \"{}\"", excerpt(&timeline.identity, 24))))?;
+    identity(Some(&timeline.identity)).map_err(|_| whole("identity", format!("no person \"{}\"", excerpt(&timeline.identity, 24))))?;
     Ok(timeline)
 }
 
@@ -288,6 +326,38 @@ mod tests {
         let long = serde_json::json!({ "fps": 30, "duration_s": 1e12, "tracks": [] });
         let err = request(serde_json::json!({ "timeline": long })).unwrap_err();
         assert_eq!(err.to_json()["field"], "timeline", "{err}");
+    }
+
+    #[test]
+    fn timeline_errors_name_the_track_and_its_field() {
+        let track = |au: u16, from: f64, to: f64, start: f64, end: f64| {
+            serde_json::json!({ "au": au, "start_intensity": from, "end_intensity": to, "start_s": start, "end_s": end })
+        };
+        let refusal = |tracks: Vec<serde_json::Value>| {
+            let timeline = serde_json::json!({ "duration_s": 2.0, "size": [64, 64], "tracks": tracks });
+            request(serde_json::json!({ "timeline": timeline, "frame": 0 })).unwrap_err().to_json()
+        };
+        let good = || track(1, 0.0, 1.0, 0.0, 1.0);
+        let cases = [
+            (vec![good(), track(12, 0.0, 1.5, 0.0, 1.0)], 2, "end_intensity"),
+            (vec![good(), track(12, -0.1, 1.0, 0.0, 1.0)], 2, "start_intensity"),
+            (vec![track(12, 0.0, 1.0, 1.0, 0.5)], 1, "end_s"),
+            (vec![track(12, 0.0, 1.0, 0.5, 2.5)], 1, "end_s"),
+            (vec![track(12, 0.0, 1.0, -1.0, 0.5)], 1, "start_s"),
+            (vec![good(), track(99, 0.0, 1.0, 0.0, 1.0)], 2, "au"),
+            (vec![track(12, 0.0, 1.0, 0.0, 1.0), good(), track(12, 1.0, 0.0, 0.5, 2.0)], 3, "start_s"),
+        ];
+        for (tracks, number, key) in cases {
+            let json = refusal(tracks);
+            assert_eq!((json["field"].as_str(), json["track"].as_u64(), json["key"].as_str()), (Some("timeline"), Some(number), Some(key)), "{json}");
+            assert!(json["error"].as_str().unwrap().contains(&format!("{number} (AU ")), "the message names the track: {json}");
+        }
+        let mut one_sided = track(26, 0.0, 1.0, 0.0, 1.0);
+        one_sided["side"] = "left".into();
+        assert_eq!(refusal(vec![one_sided])["key"], "side");
+        let slow = serde_json::json!({ "fps": 0, "duration_s": 1.0, "tracks": [] });
+        let json = request(serde_json::json!({ "timeline": slow })).unwrap_err().to_json();
+        assert_eq!((json["key"].as_str(), json.get("track")), (Some("fps"), None), "{json}");
     }
 
     #[test]

@@ -187,6 +187,22 @@ impl Browser {
         element.send_keys(text).await.unwrap_or_else(|e| panic!("type into {css}: {e}"));
     }
 
+    /// Drags the element `css` (see [`Browser::find`]) with the left mouse button, from its
+    /// centre by `dx`, `dy` CSS pixels, in a few steps as a hand would (real pointer events).
+    pub async fn drag(&self, css: &str, dx: f64, dy: f64) {
+        use fantoccini::actions::{InputSource, MOUSE_BUTTON_LEFT, MouseActions, PointerAction};
+        let element = self.find(css).await;
+        let step = Some(Duration::from_millis(40));
+        let mut mouse = MouseActions::new("mouse".into())
+            .then(PointerAction::MoveToElement { element, duration: None, x: 0.0, y: 0.0 })
+            .then(PointerAction::Down { button: MOUSE_BUTTON_LEFT });
+        for _ in 0..4 {
+            mouse = mouse.then(PointerAction::MoveBy { duration: step, x: dx / 4.0, y: dy / 4.0 });
+        }
+        mouse = mouse.then(PointerAction::Up { button: MOUSE_BUTTON_LEFT });
+        self.client.perform_actions(mouse).await.unwrap_or_else(|e| panic!("drag {css} by {dx},{dy}: {e}"));
+    }
+
     /// Saves a PNG of the viewport to `path` (creating its directory).
     pub async fn screenshot(&self, path: impl AsRef<Path>) {
         let path = path.as_ref();

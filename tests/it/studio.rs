@@ -209,6 +209,117 @@ async fn studio_editor_works_in_a_real_browser() {
     browser.close().await;
 }
 
+/// The timeline editor: a two-AU clip laid out one after the other, a handle dragged and a time
+/// typed, scrubbed and played with frames from the server; the exported JSON re-renders through
+/// `facslab render --timeline` to the page's frame and MP4; a bad value is named by track and
+/// field; the URL keeps the tracks; a CPT sequence loads as `Timeline::sequence` builds it.
+#[tokio::test(flavor = "multi_thread")]
+async fn studio_timeline_editor_builds_scrubs_plays_and_exports_a_sequential_clip() {
+    let Some(browser) = Browser::start().await else { return };
+    let studio = Studio::start();
+    browser.goto(&format!("{}#e=1%2B12C&p=wf1&s=242x240", studio.base)).await;
+    browser.wait_for("document.body.dataset.ready === '1' && document.getElementById('image').dataset.expression === '1+12C'", TIMEOUT).await;
+    browser.execute("for (const id of ['onset', 'apex', 'offset']) document.getElementById(id).value = '0.2'; return true;").await;
+    browser.click("#make-clip").await;
+    browser.wait_for("document.querySelectorAll('#tracks .track').length === 2", TIMEOUT).await;
+    browser.click("#sequential").await;
+    let starts = browser.execute("return [...document.querySelectorAll('.track input.time[data-handle=\"0\"]')].map(i => i.value);").await;
+    assert_eq!(starts, json!(["0", "0.6"]), "one after the other");
+
+    // Type a time (AU 12's apex ends at 1.1 s) and drag a handle (AU 1's offset ends 0.1 s sooner).
+    browser.fill(".track[data-row=\"1\"] input.time[data-handle=\"2\"]", "1.1").await;
+    let dx = browser.execute("const lane = document.querySelector('.track[data-row=\"0\"] svg.lane'); return -(0.1 / 2) * (lane.clientWidth - 20);").await;
+    browser.drag(".track[data-row=\"0\"] .handle[data-handle=\"3\"]", dx.as_f64().unwrap(), 0.0).await;
+    browser.wait_for("document.querySelector('.track[data-row=\"0\"] input.time[data-handle=\"3\"]').value === '0.5'", TIMEOUT).await;
+    let timeline = browser.execute("return fetch(document.getElementById('download-timeline').href).then(r => r.text());").await;
+    let timeline = timeline.as_str().unwrap().to_string();
+    let parsed = facslab::engine::timeline::Timeline::from_json(&timeline).unwrap();
+    let spans: Vec<(u16, f64, f64, f64, f64)> = parsed.tracks.iter().map(|t| (t.au.0, t.start_intensity, t.end_intensity, t.start_s, t.end_s)).collect();
+    assert_eq!(spans, [
+        (1, 0.0, 1.0, 0.0, 0.2), (1, 1.0, 1.0, 0.2, 0.4), (1, 1.0, 0.0, 0.4, 0.5),
+        (12, 0.0, 0.55, 0.6, 0.8), (12, 0.55, 0.55, 0.8, 1.1), (12, 0.55, 0.0, 1.1, 1.2),
+    ]);
+    assert_eq!((parsed.fps, parsed.duration_s, parsed.identity.as_str(), parsed.size, parsed.frame_count()), (30, 1.2, "wf1", [242, 240], 36));
+
+    // Scrub: frame 0 is neutral, frame 27 (0.9 s) has AU 12 at its apex; the page's frame is the
+    // CLI's frame of the exported JSON.
+    let scrub_to = |frame: usize| format!("const s = document.getElementById('scrub'); s.value = '{frame}'; s.dispatchEvent(new Event('input')); return true;");
+    browser.execute(&scrub_to(0)).await;
+    browser.wait_for("document.getElementById('image').dataset.frame === '0' && document.getElementById('image').complete", TIMEOUT).await;
+    let first = pixel_sum(&browser).await;
+    browser.execute(&scrub_to(27)).await;
+    browser.wait_for("document.getElementById('image').dataset.frame === '27' && document.getElementById('image').complete", TIMEOUT).await;
+    assert_ne!(pixel_sum(&browser).await, first, "the picture changed with the scrub");
+    let frame_sha = browser.execute(&format!("return {SHA_OF}(document.getElementById('image').src);")).await;
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("t.json"), &timeline).unwrap();
+    facslab_ok(dir.path(), &["render", "--timeline", "t.json", "-o", "cli.mp4", "--frames", "frames"]);
+    assert_eq!(frame_sha, json!(sha(&std::fs::read(dir.path().join("frames/000027.png")).unwrap())), "the page's frame 27 = the CLI's");
+    browser.click("#make-mp4").await;
+    browser.wait_for("!document.getElementById('download-mp4').hidden", Duration::from_secs(180)).await;
+    let mp4_sha = browser.execute(&format!("return {SHA_OF}(document.getElementById('download-mp4').href);")).await;
+    assert_eq!(mp4_sha, json!(sha(&std::fs::read(dir.path().join("cli.mp4")).unwrap())), "the page's MP4 = facslab render --timeline");
+
+    // A bad peak: the server's refusal names the track and field, and the page marks them.
+    browser.fill(".track[data-row=\"1\"] input.peak", "1.5").await;
+    browser.wait_for("!document.getElementById('timeline-error').hidden", TIMEOUT).await;
+    let error = browser.text("#timeline-error").await;
+    assert!(error.starts_with("Track 2 (AU12), peak: end intensity 1.5 is outside [0, 1]"), "{error}");
+    let marked = browser.execute("return document.querySelector('.track[data-row=\"1\"] input.peak').classList.contains('invalid');").await;
+    assert_eq!(marked, json!(true));
+    browser.fill(".track[data-row=\"1\"] input.peak", "0.55").await;
+    browser.wait_for("document.getElementById('timeline-error').hidden", TIMEOUT).await;
+
+    // Play from the start: frames one after another up to the last, then it stops.
+    browser.execute(&scrub_to(0)).await;
+    browser.click("#play").await;
+    browser.wait_for("document.getElementById('image').dataset.frame === '35' && document.getElementById('play').textContent === 'Play'", TIMEOUT).await;
+    eprintln!("play: {}", browser.text("#status").await);
+
+    // The URL keeps the tracks: opening it again gives the same timeline.
+    let hash = browser.execute("return location.hash;").await;
+    assert!(hash.as_str().unwrap().contains("tl="), "{hash}");
+    browser.goto("about:blank").await;
+    browser.goto(&format!("{}{}", studio.base, hash.as_str().unwrap())).await;
+    browser.wait_for("document.body.dataset.ready === '1' && document.querySelectorAll('#tracks .track').length === 2", TIMEOUT).await;
+    let again = browser.execute("return fetch(document.getElementById('download-timeline').href).then(r => r.text());").await;
+    assert_eq!(again.as_str().unwrap(), timeline, "the link reproduces the timeline");
+
+    // A CPT sequence loads as the set builder's `Timeline::sequence` (HapFACS timing after the reload).
+    browser.execute("const c = document.getElementById('cpt'); c.value = 'novelty'; c.dispatchEvent(new Event('change')); return true;").await;
+    browser.wait_for("document.querySelectorAll('#tracks .track').length === 7", TIMEOUT).await;
+    let novelty = browser.execute("return fetch(document.getElementById('download-timeline').href).then(r => r.text());").await;
+    let steps: Vec<_> = ["1+2+5", "4+7+26+38"].iter().map(|s| facslab::facs::Catalog::built_in().parse(s).unwrap()).collect();
+    let expected = facslab::engine::timeline::Timeline::sequence(&steps, Default::default(), 30, "wf1", (242, 240));
+    assert_eq!(facslab::engine::timeline::Timeline::from_json(novelty.as_str().unwrap()).unwrap(), expected);
+
+    timeline_screenshots(&browser, &scrub_to(135)).await;
+    browser.close().await;
+}
+
+/// A JavaScript function of a URL giving the SHA-256 (hex) of what it holds.
+const SHA_OF: &str = "((url) => fetch(url).then(r => r.arrayBuffer()).then(b => crypto.subtle.digest('SHA-256', b)).then(d => [...new Uint8Array(d)].map(x => x.toString(16).padStart(2, '0')).join('')))";
+
+/// The timeline editor with a CPT sequence loaded, at desktop and phone size.
+async fn timeline_screenshots(browser: &Browser, scrub: &str) {
+    let temp = tempfile::tempdir().unwrap();
+    let dir = std::env::var_os("FACSLAB_SCREENSHOTS").map(PathBuf::from).unwrap_or_else(|| temp.path().to_path_buf());
+    browser.execute("const s = document.getElementById('size'); s.value = '485x480'; s.dispatchEvent(new Event('change')); return true;").await;
+    browser.wait_for("document.getElementById('image').naturalWidth === 485 && document.getElementById('image').dataset.frame === undefined", TIMEOUT).await;
+    browser.execute(scrub).await;
+    browser.wait_for("document.getElementById('image').dataset.frame === '135' && document.getElementById('image').naturalWidth === 485", TIMEOUT).await;
+    for (size, width, height) in [("desktop", 1280, 900), ("phone", 390, 844)] {
+        browser.set_window_size(width, height).await;
+        let below_the_face = "document.activeElement.blur(); const top = document.querySelector('.tl-tools').getBoundingClientRect().top + scrollY;
+                              window.scrollTo(0, top - document.querySelector('.views').offsetHeight - 8); return true;";
+        browser.execute(below_the_face).await;
+        tokio::time::sleep(Duration::from_millis(300)).await;
+        let overflow = browser.execute("return document.documentElement.scrollWidth - document.documentElement.clientWidth;").await;
+        assert!(overflow.as_i64().unwrap() <= 0, "the timeline editor scrolls sideways at {size} size");
+        browser.screenshot(dir.join(format!("studio-timeline-{size}.png"))).await;
+    }
+}
+
 /// The sum of the preview's pixels (changes when the face does).
 async fn pixel_sum(browser: &Browser) -> Value {
     browser
