@@ -127,8 +127,8 @@ fn run_seed(seed: u64, size: usize, run: usize) -> u64 {
 /// Simulates and analyses one run; returns its headline statistics.
 fn one_run(model: &SimOptions, size: usize, seed: u64) -> Result<Vec<Observation>, PowerError> {
     let options = match model.design {
-        Design::Exp3 => SimOptions { seed, participants: size, ..model.clone() },
-        _ => SimOptions { seed, coders: size, ..model.clone() },
+        Design::Exp3 | Design::Exp4 => SimOptions { seed, participants: size, ..model.clone() },
+        Design::Exp1 | Design::Exp2 => SimOptions { seed, coders: size, ..model.clone() },
     };
     let (manifest_csv, responses_csv) = simulate(&options);
     let (catalog, emotions) = (Catalog::built_in(), EmotionTable::built_in());
@@ -239,12 +239,7 @@ pub fn run(model: &SimOptions, sizes: &[usize], runs: usize, tick: &dyn Fn()) ->
         }
         rows.extend(rows_of_size(size, &observations));
     }
-    let design = match model.design {
-        Design::Exp1 => "exp1",
-        Design::Exp2 => "exp2",
-        Design::Exp3 => "exp3",
-    };
-    Ok(PowerTable { convention: CONVENTION.into(), design: design.into(), seed: model.seed, runs, sizes: sizes.to_vec(), accuracy: model.accuracy, group_difference: model.group_difference, rows })
+    Ok(PowerTable { convention: CONVENTION.into(), design: model.design.name().into(), seed: model.seed, runs, sizes: sizes.to_vec(), accuracy: model.accuracy, group_difference: model.group_difference, rows })
 }
 
 #[cfg(test)]

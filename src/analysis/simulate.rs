@@ -33,6 +33,18 @@ pub enum Design {
     Exp4,
 }
 
+impl Design {
+    /// The name the command line and the outputs use.
+    pub fn name(self) -> &'static str {
+        match self {
+            Design::Exp1 => "exp1",
+            Design::Exp2 => "exp2",
+            Design::Exp3 => "exp3",
+            Design::Exp4 => "exp4",
+        }
+    }
+}
+
 /// Where wrong answers go.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Confusion {
