@@ -116,7 +116,7 @@ async fn templates_exp3_and_exp4_reproduce_the_papers_groups_and_arms() {
 }
 
 #[tokio::test(flavor = "multi_thread")]
-async fn templates_exp2_shows_every_coder_the_54_combinations_as_video_and_still() {
+async fn templates_exp2_shows_every_coder_the_54_combinations_as_video_with_a_still() {
     let lab = Lab::with_set(&reduced_set("exp2", [485, 480]));
     lab.study("exp2", &shipped("studies/exp2-coders.toml"));
     let (server, http) = (lab.serve(), client());
@@ -126,10 +126,13 @@ async fn templates_exp2_shows_every_coder_the_54_combinations_as_video_and_still
     while let Some(position) = current_position(&http, &server, &coder).await {
         let page = http.get(server.url(&format!("/p/{coder}/trial"))).send().await.unwrap().text().await.unwrap();
         assert!(!page.contains("name=\"intensity_"), "the paper's coders gave no intensities (§4.1)");
+        // Each combination's video comes with one still of it (§4.1), as one judgement.
+        assert!(page.contains("<video") && page.contains(&format!("/p/{coder}/media/{position}/1\"")), "trial {position}: no video with its still");
+        assert!(!page.contains(&format!("/p/{coder}/media/{position}/2\"")), "trial {position}: more than one still");
         let (status, ack) = save(&http, &server, &coder, position, &format!("k-{coder}-{position}"), &[("au", "12")]).await;
         assert_eq!(status, 200, "{ack}");
         trials += 1;
     }
-    // One practice trial and one attention check around the 108 stimuli.
-    assert_eq!(trials, 54 * 2 + 1 + 1, "54 combinations as video and still (Table 4), every one to every coder");
+    // One practice trial and one attention check around the 54 combinations.
+    assert_eq!(trials, 54 + 1 + 1, "the 54 combinations of Table 4, every one to every coder, each once");
 }
