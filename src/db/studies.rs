@@ -120,6 +120,8 @@ pub struct Progress {
     pub screened_out: i64,
     pub excluded: i64,
     pub responses: i64,
+    /// Stimuli with trials of their own: an entry shown together (`[au_coding] together`)
+    /// counts once.
     pub stimuli: i64,
 }
 
@@ -246,7 +248,7 @@ impl Db {
             .fetch_one(&self.reader)
             .await?
             .get(0);
-        p.stimuli = sqlx::query("SELECT COUNT(*) FROM stimuli WHERE study_id = ?").bind(study_id).fetch_one(&self.reader).await?.get(0);
+        p.stimuli = sqlx::query("SELECT COUNT(*) FROM stimuli WHERE study_id = ? AND lead IS NULL").bind(study_id).fetch_one(&self.reader).await?.get(0);
         Ok(p)
     }
 

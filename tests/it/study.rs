@@ -351,6 +351,10 @@ async fn study_exp1_coder_codes_each_au_once_from_its_video_and_stills() {
     assert!(coded.iter().all(|l| videos.contains(l.split(',').nth(2).unwrap())), "judgements under the videos: {csv}");
     let wide = export("wide.csv").await;
     assert_eq!(wide.lines().next().unwrap().matches(":aus").count(), 3, "{wide}");
+    // The dashboard's stimulus count is of trials: three AUs, not their twelve media.
+    let progress = http.get(server.url("/admin/studies/exp1/progress.json")).header("cookie", &cookie).send().await.unwrap().text().await.unwrap();
+    let progress: serde_json::Value = serde_json::from_str(&progress).unwrap();
+    assert_eq!(progress["stimuli"], 3, "{progress}");
     let codebook = export("codebook.csv").await;
     for field in ["trials[].shown", "viewing.replays", "viewing.frame_steps", "viewing.speeds", "viewing.time_on_task_ms"] {
         assert!(codebook.contains(field), "{field} missing from the codebook:\n{codebook}");
