@@ -382,17 +382,27 @@ impl StimulusLoads {
     }
 }
 
+/// The condition (on participation `p`; `?2` = now, `?3` = [`CONSENT_WITHIN_MS`]) under which a
+/// participation counts toward the balance of stimuli and of arms: not excluded; completed, or
+/// open and unexpired; and, while reserved, started within the consent window.
+macro_rules! counts_toward_balance {
+    () => {
+        "p.excluded = 0
+             AND (p.state = 'completed' OR (p.state IN ('reserved', 'active') AND p.expires_at > ?2))
+             AND (p.state <> 'reserved' OR p.created_at > ?2 - ?3)"
+    };
+}
+
 /// Only stimuli with trials of their own count: one shown beside its entry's lead is never a
 /// trial (`[au_coding] together`).
 async fn count_loads(conn: &mut SqliteConnection, study_id: i64, now: i64) -> Result<Vec<(String, usize)>, DbError> {
-    let rows = sqlx::query(
+    let rows = sqlx::query(concat!(
         "SELECT s.stimulus_id, COUNT(p.id) FROM stimuli s
          LEFT JOIN trials t ON t.stimulus_id = s.stimulus_id AND t.kind = 'trial'
-         LEFT JOIN participants p ON p.id = t.participant_id AND p.study_id = s.study_id AND p.excluded = 0
-             AND (p.state = 'completed' OR (p.state IN ('reserved', 'active') AND p.expires_at > ?2))
-             AND (p.state <> 'reserved' OR p.created_at > ?2 - ?3)
-         WHERE s.study_id = ?1 AND s.lead IS NULL GROUP BY s.stimulus_id ORDER BY s.stimulus_id",
-    )
+         LEFT JOIN participants p ON p.id = t.participant_id AND p.study_id = s.study_id AND ",
+        counts_toward_balance!(),
+        " WHERE s.study_id = ?1 AND s.lead IS NULL GROUP BY s.stimulus_id ORDER BY s.stimulus_id",
+    ))
     .bind(study_id)
     .bind(now)
     .bind(CONSENT_WITHIN_MS)
@@ -520,15 +530,10 @@ pub(crate) async fn start_in(conn: &mut SqliteConnection, start: &StartRequest, 
     Ok(Started::New(token))
 }
 
-/// The arm a new participation joins: one with the fewest participations that count (as for
-/// the stimulus loads: not excluded; completed, or open and unexpired, and consented in time).
+/// The arm a new participation joins: one with the fewest participations that count toward the
+/// balance ([`counts_toward_balance`], as for the stimulus loads).
 async fn join_arm(conn: &mut SqliteConnection, start: &StartRequest, now: i64, seed: u64) -> Result<String, DbError> {
-    let rows = sqlx::query(
-        "SELECT arm, COUNT(*) FROM participants WHERE study_id = ?1 AND excluded = 0
-             AND (state = 'completed' OR (state IN ('reserved', 'active') AND expires_at > ?2))
-             AND (state <> 'reserved' OR created_at > ?2 - ?3)
-         GROUP BY arm",
-    )
+    let rows = sqlx::query(concat!("SELECT p.arm, COUNT(*) FROM participants p WHERE p.study_id = ?1 AND ", counts_toward_balance!(), " GROUP BY p.arm"))
     .bind(start.study_id)
     .bind(now)
     .bind(CONSENT_WITHIN_MS)

@@ -26,7 +26,6 @@ use sqlx::Row;
 
 use super::export::{Scope, codebook_rows};
 use super::{Db, DbError};
-use crate::stimuli::manifest::ManifestRow;
 use crate::study::StudyDesign;
 use crate::study::measure::Demographic;
 
@@ -98,9 +97,7 @@ impl Db {
 
 /// The manifest rows of the stimuli the study shows, as CSV.
 fn stimuli_table(set_dir: &Path, shown: &[String]) -> Result<String, DbError> {
-    let manifest = set_dir.join("manifest.json");
-    let text = std::fs::read_to_string(&manifest).map_err(|e| DbError::NotFound(format!("{}: {e}", manifest.display())))?;
-    let rows: Vec<ManifestRow> = serde_json::from_str(&text).map_err(|e| DbError::Invalid(format!("{}: {e}", manifest.display())))?;
+    let (_, rows) = super::studies::set_manifest(set_dir)?;
     let mut out = crate::tabular::line(std::iter::once("stimulus_id").chain(STIMULUS_COLUMNS.map(|c| c.0)));
     for r in rows.iter().filter(|r| shown.contains(&r.stimulus_id)) {
         let cells = [&r.stimulus_id, r.media.as_str(), &r.identity, &r.expression, &r.emotion, &r.intensity.to_string(), &r.width.to_string(), &r.height.to_string(), &r.sha256];

@@ -274,12 +274,18 @@ impl Db {
     }
 }
 
+/// The rows of a built set's `manifest.json`, with the file's path for messages.
+pub(crate) fn set_manifest(set_dir: &std::path::Path) -> Result<(std::path::PathBuf, Vec<crate::stimuli::manifest::ManifestRow>), DbError> {
+    let manifest = set_dir.join("manifest.json");
+    let text = std::fs::read_to_string(&manifest).map_err(|e| DbError::NotFound(format!("{}: {e} (build the set first: facslab stimuli build SPEC -o DIR)", manifest.display())))?;
+    let rows = serde_json::from_str(&text).map_err(|e| DbError::Invalid(format!("{}: {e}", manifest.display())))?;
+    Ok((manifest, rows))
+}
+
 /// The stimuli of a built set (its `manifest.json`) that a design admits, checked to exist; with
 /// `[au_coding] together`, each names the lead of its entry ([`crate::study::entry`]).
 pub fn set_stimuli(set_dir: &std::path::Path, design: &crate::study::StudyDesign) -> Result<Vec<StudyStimulus>, DbError> {
-    let manifest = set_dir.join("manifest.json");
-    let text = std::fs::read_to_string(&manifest).map_err(|e| DbError::NotFound(format!("{}: {e} (build the set first: facslab stimuli build SPEC -o DIR)", manifest.display())))?;
-    let rows: Vec<crate::stimuli::manifest::ManifestRow> = serde_json::from_str(&text).map_err(|e| DbError::Invalid(format!("{}: {e}", manifest.display())))?;
+    let (manifest, rows) = set_manifest(set_dir)?;
     let rows: Vec<_> = rows.into_iter().filter(|r| design.admits(r.media, r.intensity)).collect();
     let mut stimuli = Vec::new();
     for row in &rows {

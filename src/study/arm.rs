@@ -36,8 +36,7 @@ pub const MAX_ARMS: usize = 16;
 impl Arm {
     /// Whether a stimulus of `media` with peak `intensity` (in [0, 1]) belongs to this arm.
     pub fn admits(&self, media: Media, intensity: f64) -> bool {
-        let percent = (intensity * 100.0).round() as u32;
-        self.media.admits(media) && (self.intensities.is_empty() || self.intensities.contains(&percent))
+        super::design::admits(self.media, &self.intensities, media, intensity)
     }
 }
 

@@ -92,6 +92,14 @@ impl MediaFilter {
     }
 }
 
+/// Whether a stimulus of `media` with peak `intensity` (in [0, 1]) passes a media filter and a
+/// list of peak intensities in whole percent (empty: every one): the study's own filter and
+/// each arm's (`study::arm`).
+pub(crate) fn admits(filter: MediaFilter, intensities: &[u32], media: crate::stimuli::manifest::Media, intensity: f64) -> bool {
+    let percent = (intensity * 100.0).round() as u32;
+    filter.admits(media) && (intensities.is_empty() || intensities.contains(&percent))
+}
+
 /// One Likert item.
 #[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -299,11 +307,9 @@ impl StudyDesign {
         raw.validate()
     }
 
-    /// The SHA-256 (hex) of the consent text, stored with each participant's consent.
     /// Whether a stimulus of `media` with peak `intensity` (in [0, 1]) belongs to this study.
     pub fn admits(&self, media: crate::stimuli::manifest::Media, intensity: f64) -> bool {
-        let percent = (intensity * 100.0).round() as u32;
-        self.media.admits(media) && (self.intensities.is_empty() || self.intensities.contains(&percent))
+        admits(self.media, &self.intensities, media, intensity)
     }
 
     /// The measures each main trial records, in column order: the task's own measure, then the
@@ -317,6 +323,7 @@ impl StudyDesign {
         main.into_iter().chain(self.items.iter().map(|i| Measure::Scale(i.measure))).collect()
     }
 
+    /// The SHA-256 (hex) of the consent text, stored with each participant's consent.
     pub fn consent_sha256(&self) -> String {
         use sha2::Digest;
         hex::encode(sha2::Sha256::digest(self.consent.as_bytes()))
