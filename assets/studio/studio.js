@@ -13,8 +13,9 @@ const state = {
   notation: "0",
   identity: "wm1",
   size: "485x480",
-  history: [],            // notations, for undo
-  future: [],             // notations, for redo
+  history: [],            // steps before `current`, for undo: { notation, tl, fps } (see `snapshot`)
+  current: null,          // the last step recorded
+  future: [],             // steps undone, for redo
   requested: 0,           // id of the newest preview request sent
   shown: 0,               // id of the newest preview shown
   inflight: null,         // AbortController of the preview request under way
@@ -128,10 +129,6 @@ function fromSliders(commit) {
 // ---- state changes ----------------------------------------------------------------------
 
 function setNotation(text, commit, moveSliders) {
-  if (commit && text !== state.notation) {
-    state.history.push(state.notation);
-    state.future = [];
-  }
   state.notation = text;
   if ($("notation").value !== text && document.activeElement !== $("notation")) $("notation").value = text;
   if (moveSliders) {
@@ -144,6 +141,7 @@ function setNotation(text, commit, moveSliders) {
   showTruth();
   saveUrl();
   schedulePreview();
+  if (commit) checkpoint();
 }
 
 function showError(err) {
@@ -170,18 +168,46 @@ function showTruth() {
     `size = [${state.size.replace("x", ", ")}]  # set-level field: move to the top of the spec\n`;
 }
 
+// ---- undo/redo ----------------------------------------------------------------------------
+
+// A step is the face and the timeline as the URL keeps them. Committed changes record one:
+// a slider let go, a notation entered, a preset, a timeline handle dropped after its drag, a
+// number field changed, a track added or removed, a layout switch, a CPT sequence, an import.
+// The person, size and look pickers are not steps.
+function snapshot() {
+  return { notation: state.notation, tl: timelineParam(), fps: editor.fps };
+}
+
+// Records the present state as a step when it differs from the last one recorded.
+function checkpoint() {
+  const now = snapshot();
+  const last = state.current;
+  if (last && last.notation === now.notation && last.tl === now.tl && last.fps === now.fps) return;
+  if (last) state.history.push(last);
+  state.current = now;
+  state.future = [];
+}
+
+function restore(step) {
+  state.current = step;
+  editor.fps = step.fps;
+  loadTimelineParam(step.tl, true);
+  $("notation").value = step.notation;
+  setNotation(step.notation, false, true);
+  if (editor.tracks.length) timelineChanged();
+}
+
 function undo() {
+  checkpoint(); // a change not yet recorded (a field still being typed in) is undone first
   if (!state.history.length) return;
-  state.future.push(state.notation);
-  setNotation(state.history.pop(), false, true);
-  $("notation").value = state.notation;
+  state.future.push(state.current);
+  restore(state.history.pop());
 }
 
 function redo() {
   if (!state.future.length) return;
-  state.history.push(state.notation);
-  setNotation(state.future.pop(), false, true);
-  $("notation").value = state.notation;
+  state.history.push(state.current);
+  restore(state.future.pop());
 }
 
 // ---- URL --------------------------------------------------------------------------------
@@ -201,6 +227,7 @@ function saveUrl() {
   if (compare) params.set("c", compare);
   if ($("show-neutral").checked) params.set("n", "1");
   if (editor.tracks.length) params.set("tl", timelineParam());
+  if (editor.tracks.length && editor.fps !== state.catalog.clip.fps) params.set("fps", String(editor.fps));
   history.replaceState(null, "", "#" + params.toString());
 }
 
@@ -217,7 +244,9 @@ function loadUrl() {
   $("grayscale").checked = params.get("g") === "1";
   $("identity").value = state.identity;
   $("size").value = state.size;
-  loadTimelineParam(params.get("tl"));
+  const fps = Number(params.get("fps"));
+  editor.fps = Number.isInteger(fps) && fps >= 1 && fps <= 120 ? fps : state.catalog.clip.fps;
+  loadTimelineParam(params.get("tl"), true);
   return params.get("e") || "0";
 }
 
@@ -363,6 +392,7 @@ async function start() {
   const notation = loadUrl();
   $("notation").value = notation;
   setNotation(notation, false, true);
+  checkpoint();
   document.body.dataset.ready = "1";
 }
 

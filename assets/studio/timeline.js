@@ -1,9 +1,10 @@
 // facslab studio, the timeline editor: a track per AU clip (onset start, apex start, apex end,
 // offset end, peak, ramp) drawn on a time axis with draggable handles and number fields, laid out
 // all together or one after another, CPT sequences from the catalog, scrub and play with frames
-// rendered by the server (latest request wins), and the timeline JSON that the MP4 export and
-// `facslab render --timeline` take. Loaded before studio.js, whose `state`, `$`, `look`,
-// `renderPng`, `showImage` and `saveUrl` it uses; it runs nothing on its own.
+// rendered by the server (latest request wins), the timeline JSON that the MP4 export and
+// `facslab render --timeline` take, and importing such a file (checked by the server). Loaded
+// before studio.js, whose `state`, `$`, `look`, `renderPng`, `showImage`, `saveUrl` and
+// `checkpoint` (an undo step) it uses; it runs nothing on its own.
 //
 // A track {au, side, peak, t: [onset start, apex start, apex end, offset end], ramp} becomes three
 // timeline tracks (0 → peak, peak held, peak → 0), so timeline track n (1-based, as the server's
@@ -61,11 +62,13 @@ function timelineObject() {
   return { fps: editor.fps, duration_s: durationS(), identity: state.identity, size: [width, height], tracks };
 }
 
+// Replaces the tracks as one undo step.
 function setTracks(tracks) {
   stopPlaying();
   editor.tracks = tracks;
   drawTracks();
   timelineChanged();
+  checkpoint();
 }
 
 function fromPose(pose, start) {
@@ -104,7 +107,7 @@ function timelineParam() {
   return editor.tracks.map((tr) => [tr.au, tr.side, tr.peak, ...tr.t, tr.ramp].join(",")).join(";");
 }
 
-function loadTimelineParam(text) {
+function loadTimelineParam(text, quiet) {
   const ramps = ["linear", "smoothstep", "cosine"];
   const tracks = [];
   for (const item of (text || "").split(";").filter(Boolean)) {
@@ -116,7 +119,7 @@ function loadTimelineParam(text) {
   }
   editor.tracks = tracks;
   drawTracks();
-  timelineChanged(true);
+  timelineChanged(quiet);
 }
 
 // ---- drawing ----------------------------------------------------------------------------
@@ -298,11 +301,13 @@ function onPointerMove(e) {
   timelineChanged();
 }
 
+// The end of a drag: the whole drag is one undo step.
 function onPointerUp() {
   if (!editor.dragging) return;
   editor.dragging = null;
   rescale();
   timelineChanged();
+  checkpoint();
 }
 
 function onHandleKey(e) {
@@ -316,9 +321,11 @@ function onHandleKey(e) {
   refreshRow(row);
   document.querySelector(`.track[data-row="${row}"] .handle[data-handle="${handle}"]`).focus();
   timelineChanged();
+  checkpoint();
 }
 
-// Typed values are taken as they are (the server says what is wrong with them).
+// Typed values are taken as they are (the server says what is wrong with them); a field's
+// `change` (not each keystroke) is an undo step.
 function onTrackInput(e) {
   const div = e.target.closest(".track");
   if (!div) return;
@@ -333,6 +340,7 @@ function onTrackInput(e) {
   if (e.type === "change") rescale();
   else drawLane(row);
   timelineChanged();
+  if (e.type === "change") checkpoint();
 }
 
 function onTrackClick(e) {
@@ -473,6 +481,74 @@ async function makeMp4() {
   }
 }
 
+// ---- import ---------------------------------------------------------------------------
+
+// The editor's tracks of a timeline (as the server's check returns it, defaults filled in), or
+// {error} when it does not fit the editor's model: each editor track is three timeline tracks in
+// a row, 0 → peak, peak held, peak → 0, of one AU, side and ramp, each starting where the last
+// ends, and the clip ends where its last track does.
+function editorTracks(timeline) {
+  const sides = { both: "B", left: "L", right: "R" };
+  const tracks = [];
+  const list = timeline.tracks;
+  for (let i = 0; i < list.length; i += 3) {
+    const [rise, hold, fall] = list.slice(i, i + 3);
+    const same = (x) => x && x.au === rise.au && x.side === rise.side && x.ramp === rise.ramp;
+    const peak = rise.end_intensity;
+    const fits = same(hold) && same(fall) && rise.start_intensity === 0 && hold.start_intensity === peak && hold.end_intensity === peak &&
+      fall.start_intensity === peak && fall.end_intensity === 0 && hold.start_s === rise.end_s && fall.start_s === hold.end_s;
+    if (!fits) {
+      const last = Math.min(i + 3, list.length);
+      return { error: `timeline tracks ${i + 1}–${last} (AU${rise.au}) are not one editor track: the editor shows an AU as three tracks in a row (0 → peak, peak held, peak → 0, each starting where the last ends). facslab render --timeline renders this file as it is.` };
+    }
+    tracks.push({ au: rise.au, side: sides[rise.side], peak, t: [rise.start_s, rise.end_s, hold.end_s, fall.end_s], ramp: rise.ramp });
+  }
+  const end = round3(Math.max(0, ...tracks.map((tr) => tr.t[3])));
+  if (end !== timeline.duration_s) return { error: `duration_s is ${timeline.duration_s} s but the last track ends at ${end} s: the editor's clip ends with its last track.` };
+  return { tracks };
+}
+
+function showImportResult(text, ok) {
+  const box = $("import-result");
+  box.hidden = false;
+  box.className = ok ? "status" : "error";
+  box.textContent = text;
+}
+
+// Checks `text` with the server and, when the editor can show it, loads it (one undo step): its
+// tracks, frame rate, person and size.
+async function importTimeline(text, source) {
+  const limit = state.catalog.limits.timeline_bytes;
+  const bytes = new Blob([text]).size;
+  if (bytes > limit) return showImportResult(`${source}: ${bytes} bytes is over the ${limit} bytes a timeline may have; nothing imported.`, false);
+  const response = await fetch("api/v1/timeline/check", { method: "POST", headers: { "Content-Type": "application/json" }, body: text }).catch((err) => ({ ok: false, json: async () => ({ error: err.message }) }));
+  const body = await response.json().catch(() => ({ error: response.statusText }));
+  if (!response.ok) {
+    const where = body.track ? `track ${body.track}, field ${body.key}: ` : body.key ? `field ${body.key}: ` : "";
+    return showImportResult(`${source} refused: ${where}${body.error.replace(/^`timeline`: (track \d+ \(AU \d+\): )?/, "")}`, false);
+  }
+  const read = editorTracks(body);
+  if (read.error) return showImportResult(`${source} is a valid timeline but cannot be edited here: ${read.error}`, false);
+  editor.fps = body.fps;
+  state.identity = body.identity;
+  state.size = body.size.join("x");
+  if (![...$("size").options].some((o) => o.value === state.size)) $("size").append(new Option(body.size.join(" × "), state.size));
+  $("identity").value = state.identity;
+  $("size").value = state.size;
+  setNotation(state.notation, false, false);
+  setTracks(read.tracks);
+  showImportResult(`Imported ${source}: ${read.tracks.length} track${read.tracks.length === 1 ? "" : "s"}, ${durationS()} s at ${editor.fps} fps, ${state.identity}, ${state.size}.`, true);
+}
+
+function onImportFile(e) {
+  const file = e.target.files[0];
+  e.target.value = "";
+  if (!file) return;
+  const limit = state.catalog.limits.timeline_bytes;
+  if (file.size > limit) return showImportResult(`${file.name}: ${file.size} bytes is over the ${limit} bytes a timeline may have; not read.`, false);
+  file.text().then((text) => importTimeline(text, file.name));
+}
+
 function wireTimeline() {
   for (const unit of state.catalog.aus) $("add-au").append(new Option(`${unit.code} ${unit.name}`, unit.code));
   for (const s of state.catalog.sequences) $("cpt").append(new Option(`${s.name.replace(/_/g, " ")} (${s.steps.join(" → ")})`, s.name));
@@ -496,5 +572,7 @@ function wireTimeline() {
   $("scrub").addEventListener("input", onScrub);
   $("play").addEventListener("click", play);
   $("make-mp4").addEventListener("click", makeMp4);
+  $("import-file").addEventListener("change", onImportFile);
+  $("import-paste").addEventListener("click", () => importTimeline($("import-text").value, "the pasted timeline"));
   window.addEventListener("resize", rescale);
 }

@@ -14,8 +14,10 @@
 //! - **Metrics** (HapFACS Eq. 2–5): accuracy = (TP+TN)/N, precision = TP/(TP+FP), recall =
 //!   TP/(TP+FN), F1 = 2TP/(2TP+FP+FN); 0/0 is reported as 0. **Macro** = unweighted mean over
 //!   the AU set; **micro** = from TP/FP/FN/TN summed over the AU set.
-//! - **F1 CI** (per AU, 95 %): Wald interval by the delta method, conditional on the shown
-//!   (positive) and not-shown (negative) pairs, TP and FP binomial (`stats::classification::f1_ci`).
+//! - **F1 CI** (per AU, 95 %): Jeffreys interval, conditional on the shown (positive) and
+//!   not-shown (negative) pairs: recall and false-positive rate from their Jeffreys posteriors
+//!   (Beta(x + ½, n − x + ½)), the equal-tailed percentiles of the F1 they imply, seeded by the
+//!   counts (`stats::classification::f1_ci`).
 //! - **Mistaken for**: for each miss of a shown AU, the AUs the coder marked on that stimulus
 //!   that the stimulus does not show, counted.
 //! - **Combinations** (Table 4): stimuli grouped by the set of AU codes shown; "recognised" =
@@ -142,7 +144,7 @@ pub struct AuRow {
     pub shown_in: usize,
     pub counts: Counts,
     pub metrics: Metrics,
-    /// 95 % CI of `metrics.f1` (delta method, conditional on what was shown; see `f1_ci`).
+    /// 95 % CI of `metrics.f1` (Jeffreys, conditional on what was shown; see `f1_ci`).
     pub f1_ci95: Outcome<(f64, f64)>,
     pub mistaken_for: Vec<AuCount>,
     /// Cronbach's α with coders as items, stimuli as cases (Table 2).
@@ -257,7 +259,7 @@ fn comparison(per_au: &[AuRow], shown_macro_mean: &Metrics, combinations: &[Comb
 }
 
 /// The module documentation, as stated in the report.
-pub const CONVENTION: &str = "Decisions: (coder, stimulus, AU) present/absent over every answered (coder, stimulus) pair; missing answers are left out and counted. AU set: catalog AUs occurring in the ground truth of a coded stimulus or in any answer. Metrics: HapFACS Eq. 2-5 (accuracy (TP+TN)/N, precision TP/(TP+FP), recall TP/(TP+FN), F1 2TP/(2TP+FP+FN)), 0/0 = 0; macro = unweighted mean, headline over the AUs the stimuli show (as HapFACS Table 3), beside it over the whole AU set (AUs only coders marked included); micro = from summed counts. F1 95% CI per AU (report.json): delta-method Wald interval conditional on the shown and not-shown pairs (TP and FP binomial), clipped to [0, 1]. A shown AU marked with the wrong side/intensity (when matching is required) is a miss. Mistaken for: AUs marked on a stimulus that does not show them, counted at each miss. Combinations: grouped by shown AU codes; recognised = shown AUs recognised at least once; false positives in parentheses; metrics micro over the AU set; mean = macro over combinations. Agreement uses AU codes only over stimuli every coder answered (complete cases): Cronbach's alpha per AU (coders = items, stimuli = cases, marked = 1), Fleiss' kappa per AU and over (stimulus, AU) items, pairwise Cohen's kappa over (stimulus, AU) items, Dice = mean 2|A&B|/(|A|+|B|) over common stimuli.";
+pub const CONVENTION: &str = "Decisions: (coder, stimulus, AU) present/absent over every answered (coder, stimulus) pair; missing answers are left out and counted. AU set: catalog AUs occurring in the ground truth of a coded stimulus or in any answer. Metrics: HapFACS Eq. 2-5 (accuracy (TP+TN)/N, precision TP/(TP+FP), recall TP/(TP+FN), F1 2TP/(2TP+FP+FN)), 0/0 = 0; macro = unweighted mean, headline over the AUs the stimuli show (as HapFACS Table 3), beside it over the whole AU set (AUs only coders marked included); micro = from summed counts. F1 95% CI per AU (report.json): Jeffreys interval conditional on the shown and not-shown pairs: recall ~ Beta(TP+1/2, FN+1/2), false-positive rate ~ Beta(FP+1/2, TN+1/2), 2.5-97.5% percentiles of the implied F1 over 2000 draws seeded by the counts, widened to contain the observed F1. A shown AU marked with the wrong side/intensity (when matching is required) is a miss. Mistaken for: AUs marked on a stimulus that does not show them, counted at each miss. Combinations: grouped by shown AU codes; recognised = shown AUs recognised at least once; false positives in parentheses; metrics micro over the AU set; mean = macro over combinations. Agreement uses AU codes only over stimuli every coder answered (complete cases): Cronbach's alpha per AU (coders = items, stimuli = cases, marked = 1), Fleiss' kappa per AU and over (stimulus, AU) items, pairwise Cohen's kappa over (stimulus, AU) items, Dice = mean 2|A&B|/(|A|+|B|) over common stimuli.";
 
 fn nearest_level(value: f64) -> IntensityLevel {
     let mut best = IntensityLevel::E;

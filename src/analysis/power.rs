@@ -12,7 +12,7 @@
 //! between order statistics, numpy's default). When the CI is calibrated, the two agree. For the
 //! group t-test, the power: the share of runs with Welch p < .05.
 //!
-//! Statistics: per-AU F1 (exp1/exp2; delta-method CI, one row per shown AU and their mean),
+//! Statistics: per-AU F1 (exp1/exp2; Jeffreys CI, one row per shown AU and their mean),
 //! recognition rate per condition × emotion (Clopper–Pearson CI, one row each and their mean),
 //! mean believability per condition (t CI over the participants' means), and the Welch t-test
 //! of the first two groups' mean believability per condition (its CI of the difference, and the
@@ -29,6 +29,7 @@ use super::manifest::Manifest;
 use super::rating::BELIEVABILITY_OUTCOME;
 use super::responses::{Responses, Scale};
 use super::simulate::{Design, SimOptions, simulate};
+use super::stats::descriptive::quantile_sorted as quantile;
 use crate::facs::{Catalog, EmotionTable};
 use crate::seeded::SplitMix64;
 
@@ -90,7 +91,7 @@ pub struct PowerTable {
     pub rows: Vec<PowerRow>,
 }
 
-pub const CONVENTION: &str = "For each size (coders for exp1/exp2, raters per media x intensity condition for exp3), R seeded simulations are analysed as a real study. ci_width_mean = mean over runs of the reported 95% CI width; spread = 2.5-97.5% percentiles of the point estimates over runs (linear interpolation); a calibrated CI has ci_width_mean close to spread_width. per-AU F1: delta-method CI; recognition rate: Clopper-Pearson; believability mean: t CI over participants' means; believability t-test: Welch, first two groups, per condition, CI of the difference, power = share of runs with p < .05. Rows with item = mean average the items' rows.";
+pub const CONVENTION: &str = "For each size (coders for exp1/exp2, raters per media x intensity condition for exp3), R seeded simulations are analysed as a real study. ci_width_mean = mean over runs of the reported 95% CI width; spread = 2.5-97.5% percentiles of the point estimates over runs (linear interpolation); a calibrated CI has ci_width_mean close to spread_width. per-AU F1: Jeffreys CI (the report's); recognition rate: Clopper-Pearson; believability mean: t CI over participants' means; believability t-test: Welch, first two groups, per condition, CI of the difference, power = share of runs with p < .05. Rows with item = mean average the items' rows.";
 
 /// One statistic of one analysed run.
 struct Observation {
@@ -161,13 +162,6 @@ fn one_run(model: &SimOptions, size: usize, seed: u64) -> Result<Vec<Observation
         }
     }
     Ok(out)
-}
-
-/// The `q`-quantile of sorted values, interpolating linearly between order statistics.
-fn quantile(sorted: &[f64], q: f64) -> f64 {
-    let h = (sorted.len() - 1) as f64 * q;
-    let (lo, hi) = (h.floor() as usize, h.ceil() as usize);
-    sorted[lo] + (h - lo as f64) * (sorted[hi] - sorted[lo])
 }
 
 /// The row of one statistic at one size from its observations over the runs.
@@ -253,13 +247,6 @@ mod tests {
         assert_eq!(check(&[5, 1], 10), Err(PowerError::Size(1)));
         assert_eq!(check(&[500, 500], 1000), Err(PowerError::Work(1_000_000)));
         assert!(check(&[3, 10], 50).is_ok());
-    }
-
-    #[test]
-    fn quantiles_interpolate_as_numpy() {
-        // numpy.percentile([1, 2, 3, 4, 10], [2.5, 97.5]) = [1.1, 9.4].
-        let v = [1.0, 2.0, 3.0, 4.0, 10.0];
-        assert!((quantile(&v, 0.025) - 1.1).abs() < 1e-12 && (quantile(&v, 0.975) - 9.4).abs() < 1e-12);
     }
 
     #[test]

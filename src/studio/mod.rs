@@ -81,6 +81,7 @@ pub fn router_at<S: Clone + Send + Sync + 'static>(base: &str, state: StudioStat
         .route(&at("/api/v1/catalog"), get(catalog))
         .route(&at("/api/v1/render"), post(render))
         .route(&at("/api/v1/timeline"), post(clip_timeline))
+        .route(&at("/api/v1/timeline/check"), post(check_timeline))
         .route(&at("/api/v1/stream"), get(stream::upgrade))
         .route(&at("/health"), get(|| async { "ok" }))
         .layer(DefaultBodyLimit::max(BODY_LIMIT))
@@ -132,7 +133,7 @@ pub fn catalog_json() -> serde_json::Value {
         "clip": { "timing": ClipTiming::default(), "fps": DEFAULT_FPS },
         "defaults": { "identity": request::DEFAULT_IDENTITY, "size": format!("{width}x{height}") },
         "backdrops": ["grey", "black", "transparent"], "lights": ["studio", "soft", "dramatic"],
-        "limits": { "expression_bytes": crate::facs::MAX_NOTATION_LEN, "side": request::MAX_SIDE, "video_frames": request::MAX_VIDEO_FRAMES },
+        "limits": { "expression_bytes": crate::facs::MAX_NOTATION_LEN, "timeline_bytes": BODY_LIMIT, "side": request::MAX_SIDE, "video_frames": request::MAX_VIDEO_FRAMES },
     })
 }
 
@@ -156,6 +157,16 @@ async fn clip_timeline(body: axum::body::Bytes) -> Response {
         Err(e) => return RequestError::Json(e.to_string()).into_response(),
     };
     match clip.timeline_json() {
+        Ok(json) => ([(header::CONTENT_TYPE, "application/json")], json).into_response(),
+        Err(e) => e.into_response(),
+    }
+}
+
+/// `POST /api/v1/timeline/check`: a timeline JSON to import into the editor, validated as a
+/// render request would be; answers the timeline as the server reads it, or the 422 naming the
+/// track and field. Bodies over [`BODY_LIMIT`] are refused (413) before they are read.
+async fn check_timeline(body: axum::body::Bytes) -> Response {
+    match request::check_timeline(&body) {
         Ok(json) => ([(header::CONTENT_TYPE, "application/json")], json).into_response(),
         Err(e) => e.into_response(),
     }

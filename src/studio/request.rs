@@ -247,6 +247,14 @@ fn timeline(value: serde_json::Value) -> Result<Timeline, RequestError> {
     Ok(timeline)
 }
 
+/// Checks a timeline as a render request would (`POST /api/v1/timeline/check`, for importing a
+/// file into the editor): the timeline JSON as the server reads it, defaults filled in, or the
+/// refusal naming the track and field.
+pub fn check_timeline(body: &[u8]) -> Result<String, RequestError> {
+    let value: serde_json::Value = serde_json::from_slice(body).map_err(|e| RequestError::Json(e.to_string()))?;
+    Ok(timeline(value)?.to_json())
+}
+
 impl RenderRequest {
     /// Checks the request completely; nothing renders yet.
     pub fn parse(self) -> Result<Job, RequestError> {
@@ -369,5 +377,16 @@ mod tests {
         assert!(request(both).is_err());
         assert!(request(serde_json::json!({})).is_err());
         assert!(matches!(request(serde_json::json!({ "expresion": "12" })), Err(RequestError::Json(_))));
+    }
+
+    #[test]
+    fn a_checked_timeline_comes_back_with_its_defaults_or_is_refused_by_track_and_field() {
+        let checked = check_timeline(br#"{"duration_s": 1, "tracks": [{"au": 12, "start_intensity": 0, "end_intensity": 1, "start_s": 0, "end_s": 1}]}"#).unwrap();
+        let timeline = Timeline::from_json(&checked).unwrap();
+        assert_eq!((timeline.fps, timeline.identity.as_str(), timeline.size), (30, DEFAULT_IDENTITY, [485, 480]));
+        assert!(checked.contains("\"side\": \"both\"") && checked.contains("\"ramp\": \"linear\""), "{checked}");
+        let bad = check_timeline(br#"{"duration_s": 1, "tracks": [{"au": 12, "start_intensity": 0, "end_intensity": 1.5, "start_s": 0, "end_s": 1}]}"#).unwrap_err();
+        assert_eq!((bad.to_json()["track"].clone(), bad.to_json()["key"].clone()), (1.into(), "end_intensity".into()), "{bad}");
+        assert!(matches!(check_timeline(b"{not json"), Err(RequestError::Json(_))));
     }
 }

@@ -187,6 +187,12 @@ impl Browser {
         element.send_keys(text).await.unwrap_or_else(|e| panic!("type into {css}: {e}"));
     }
 
+    /// Chooses the file `path` in the file input `css`, as picking it in the file dialog would.
+    pub async fn upload(&self, css: &str, path: &Path) {
+        let element = self.find(css).await;
+        element.send_keys(&path.to_string_lossy()).await.unwrap_or_else(|e| panic!("choose {} in {css}: {e}", path.display()));
+    }
+
     /// Drags the element `css` (see [`Browser::find`]) with the left mouse button, from its
     /// centre by `dx`, `dy` CSS pixels, in a few steps as a hand would (real pointer events).
     pub async fn drag(&self, css: &str, dx: f64, dy: f64) {

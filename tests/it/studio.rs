@@ -297,6 +297,109 @@ async fn studio_timeline_editor_builds_scrubs_plays_and_exports_a_sequential_cli
     browser.close().await;
 }
 
+/// Undo and redo over timeline edits (a drag is one step, a number edit one, a layout switch
+/// one), then importing timeline JSON: a file with one bad field is refused naming its track and
+/// field, a good file shows its tracks and renders a frame, an exported timeline pasted back
+/// gives the same editor state and the same export, and a valid timeline the editor cannot
+/// show is refused with the reason.
+#[tokio::test(flavor = "multi_thread")]
+async fn studio_timeline_edits_undo_and_redo_and_timelines_import() {
+    let Some(browser) = Browser::start().await else { return };
+    let studio = Studio::start();
+    browser.goto(&format!("{}#e=1%2B12C&p=wf1&s=242x240", studio.base)).await;
+    browser.wait_for("document.body.dataset.ready === '1' && document.getElementById('image').dataset.expression === '1+12C'", TIMEOUT).await;
+    let steps = async || browser.execute("return [state.history.length, timelineParam()];").await;
+    browser.execute("for (const id of ['onset', 'apex', 'offset']) document.getElementById(id).value = '0.2'; return true;").await;
+    let start = steps().await;
+    browser.click("#make-clip").await;
+    browser.wait_for("document.querySelectorAll('#tracks .track').length === 2", TIMEOUT).await;
+    let made = steps().await;
+    browser.click("#sequential").await;
+    let sequential = steps().await;
+    browser.execute("const f = document.querySelector('.track[data-row=\"1\"] input.time[data-handle=\"2\"]'); f.value = '1.1';
+                     f.dispatchEvent(new Event('input', { bubbles: true })); f.dispatchEvent(new Event('change', { bubbles: true })); return true;").await;
+    let typed = steps().await;
+    let dx = browser.execute("const lane = document.querySelector('.track[data-row=\"0\"] svg.lane'); return -(0.1 / 2) * (lane.clientWidth - 20);").await;
+    browser.drag(".track[data-row=\"0\"] .handle[data-handle=\"3\"]", dx.as_f64().unwrap(), 0.0).await;
+    browser.wait_for("document.querySelector('.track[data-row=\"0\"] input.time[data-handle=\"3\"]').value === '0.5'", TIMEOUT).await;
+    let dragged = steps().await;
+    let count = |v: &Value| v[0].as_u64().unwrap();
+    assert_eq!([&made, &sequential, &typed, &dragged].map(count), [1, 2, 3, 4].map(|k| count(&start) + k), "one step per edit, the drag's moves included");
+    for (button, expected) in [("#undo", &typed), ("#undo", &sequential), ("#undo", &made), ("#redo", &sequential), ("#redo", &typed), ("#redo", &dragged)] {
+        browser.click(button).await;
+        assert_eq!(steps().await[1], expected[1], "after {button}");
+    }
+    let edited = browser.execute("return [...document.querySelectorAll('.track input.time')].map(i => i.value);").await;
+    assert_eq!(edited, json!(["0", "0.2", "0.4", "0.5", "0.6", "0.8", "1.1", "1.2"]), "redo shows the edited times");
+    let export = "return fetch(document.getElementById('download-timeline').href).then(r => r.text());";
+    let exported = browser.execute(export).await.as_str().unwrap().to_string();
+
+    // A file with one bad field: refused, naming the track and the field; the editor is untouched.
+    let dir = tempfile::tempdir().unwrap();
+    let mut bad: Value = serde_json::from_str(&exported).unwrap();
+    bad["tracks"][4]["end_intensity"] = json!(1.5);
+    std::fs::write(dir.path().join("bad.json"), bad.to_string()).unwrap();
+    browser.upload("#import-file", &dir.path().join("bad.json")).await;
+    browser.wait_for("!document.getElementById('import-result').hidden", TIMEOUT).await;
+    let refusal = browser.text("#import-result").await;
+    assert!(refusal.starts_with("bad.json refused: track 5, field end_intensity: end intensity 1.5 is outside [0, 1]"), "{refusal}");
+    assert_eq!(steps().await, dragged, "a refused import changes nothing");
+
+    // A good file: a CPT sequence as the set builder makes it, at 24 fps; its tracks are shown and a frame renders.
+    let sequence: Vec<_> = ["1+2+5", "4+7+26+38"].iter().map(|s| facslab::facs::Catalog::built_in().parse(s).unwrap()).collect();
+    let good = facslab::engine::timeline::Timeline::sequence(&sequence, Default::default(), 24, "bm1", (485, 480));
+    std::fs::write(dir.path().join("novelty.json"), good.to_json()).unwrap();
+    browser.upload("#import-file", &dir.path().join("novelty.json")).await;
+    browser.wait_for("document.querySelectorAll('#tracks .track').length === 7 && document.getElementById('image').dataset.frame !== undefined && document.getElementById('image').complete", TIMEOUT).await;
+    assert!(browser.text("#import-result").await.starts_with("Imported novelty.json: 7 tracks, 6 s at 24 fps, bm1, 485x480."));
+    let reexported = browser.execute(export).await;
+    assert_eq!(facslab::engine::timeline::Timeline::from_json(reexported.as_str().unwrap()).unwrap(), good, "the imported file is what the editor exports");
+    assert_eq!(pixel_sum_is_a_face(&browser).await, json!(true), "the frame rendered");
+    import_screenshot(&browser).await;
+
+    // The import is one step; the timeline exported before, pasted back, gives the same editor and the same export.
+    browser.click("#undo").await;
+    assert_eq!(steps().await[1], dragged[1], "undo takes the import back");
+    browser.execute("document.querySelector('.tl-import details').open = true; return true;").await;
+    browser.execute(&format!("document.getElementById('import-text').value = {}; return true;", serde_json::to_string(&good.to_json()).unwrap())).await;
+    browser.click("#import-paste").await;
+    browser.wait_for("document.querySelectorAll('#tracks .track').length === 7", TIMEOUT).await;
+    browser.execute(&format!("document.getElementById('import-text').value = {}; return true;", serde_json::to_string(&exported).unwrap())).await;
+    browser.click("#import-paste").await;
+    browser.wait_for("document.querySelectorAll('#tracks .track').length === 2", TIMEOUT).await;
+    assert_eq!(steps().await[1], dragged[1], "the re-imported export is the same editor state");
+    assert_eq!(browser.execute(export).await.as_str().unwrap(), exported, "and exports the same bytes");
+
+    // A valid timeline that is not onset/apex/offset triples: refused with the reason.
+    let ramp = json!({ "duration_s": 1, "tracks": [{ "au": 12, "start_intensity": 0, "end_intensity": 1, "start_s": 0, "end_s": 1 }] });
+    browser.execute(&format!("document.getElementById('import-text').value = {}; return true;", serde_json::to_string(&ramp.to_string()).unwrap())).await;
+    browser.click("#import-paste").await;
+    browser.wait_for("document.getElementById('import-result').textContent.includes('cannot be edited here')", TIMEOUT).await;
+    assert!(browser.text("#import-result").await.contains("timeline tracks 1–1 (AU12) are not one editor track"));
+    assert_eq!(steps().await[1], dragged[1]);
+    browser.close().await;
+}
+
+/// Whether the preview holds a picture with more than one colour (a rendered face, not a blank).
+async fn pixel_sum_is_a_face(browser: &Browser) -> Value {
+    browser
+        .execute("const img = document.getElementById('image'); const c = document.createElement('canvas');
+                  c.width = img.naturalWidth; c.height = img.naturalHeight; const g = c.getContext('2d'); g.drawImage(img, 0, 0);
+                  const d = g.getImageData(0, 0, c.width, c.height).data; return d.some((v, i) => v !== d[i % 4]);")
+        .await
+}
+
+/// The studio just after a timeline import, at desktop size, scrolled to the timeline.
+async fn import_screenshot(browser: &Browser) {
+    let temp = tempfile::tempdir().unwrap();
+    let dir = std::env::var_os("FACSLAB_SCREENSHOTS").map(PathBuf::from).unwrap_or_else(|| temp.path().to_path_buf());
+    browser.set_window_size(1280, 900).await;
+    browser.execute("document.activeElement.blur(); const top = document.querySelector('.tl-tools').getBoundingClientRect().top + scrollY;
+                     window.scrollTo(0, top - document.querySelector('.views').offsetHeight - 8); return true;").await;
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    browser.screenshot(dir.join("studio-import-desktop.png")).await;
+}
+
 /// A JavaScript function of a URL giving the SHA-256 (hex) of what it holds.
 const SHA_OF: &str = "((url) => fetch(url).then(r => r.arrayBuffer()).then(b => crypto.subtle.digest('SHA-256', b)).then(d => [...new Uint8Array(d)].map(x => x.toString(16).padStart(2, '0')).join('')))";
 

@@ -9,33 +9,45 @@
 //! - **macro** = unweighted mean of the per-class values (macro F1 is the mean of per-class F1,
 //!   not the F1 of macro P and R); **weighted** = mean weighted by support; **micro** = computed
 //!   from TP/FP/FN summed over classes (equals accuracy for single-label data over the full set).
-//! - [`f1_ci`]: Wald interval of one binary F1 by the delta method, conditional on the design's
-//!   positives P = TP + FN and negatives N = FP + TN (fixed by what was shown):
-//!   TP ~ Binomial(P, recall), FP ~ Binomial(N, false-positive rate), independent;
-//!   Var(F1) = 4[(P + FP)² Var(TP) + TP² Var(FP)] / (2TP + FP + FN)⁴ with the plug-in variances
-//!   TP·FN/P and FP·TN/N; F1 ± z·SD, clipped to [0, 1]. Zero width when both plug-in variances
-//!   are 0 (every positive found and no false positive, or no positive found).
+//! - [`f1_ci`]: Jeffreys interval of one binary F1, conditional on the design's positives
+//!   P = TP + FN and negatives N = FP + TN (fixed by what was shown): recall ~ Beta(TP + ½,
+//!   FN + ½) and false-positive rate ~ Beta(FP + ½, TN + ½), independent (each the Jeffreys
+//!   posterior of a binomial proportion); F1 = 2P·recall / (P·recall + P + N·fpr); the interval is
+//!   the equal-tailed percentiles of [`F1_CI_DRAWS`] draws from a generator seeded by the four
+//!   counts (same counts, same interval), widened to contain the observed F1 (as the Jeffreys
+//!   binomial interval takes 1 as its upper limit when every trial succeeds). Unlike the delta
+//!   method's Wald interval it has width when every positive is found and nothing else marked;
+//!   measured on simulated Exp. 1 studies (`docs/power.md`) its width matches the spread of
+//!   repeated studies and its coverage is 95 % from 3 coders on.
 
-use statrs::distribution::{ContinuousCDF, Normal};
+use super::descriptive::quantile_sorted;
+use crate::seeded::SplitMix64;
 
 use super::{Result, StatsError};
 
-/// Delta-method Wald CI of F1 = 2TP / (2TP + FP + FN) at `level` (see the module doc).
+/// Draws from the posterior behind one [`f1_ci`]: the endpoints' Monte Carlo error is about
+/// 0.01 on the F1 scale (2000 draws keep a power analysis of hundreds of simulated studies quick).
+pub const F1_CI_DRAWS: usize = 2000;
+
+/// Jeffreys CI of F1 = 2TP / (2TP + FP + FN) at `level` (see the module doc).
 pub fn f1_ci(tp: u64, fp: u64, fn_: u64, tn: u64, level: f64) -> Result<(f64, f64)> {
     super::error::check_level("f1_ci", level)?;
-    let (tp, fp, fn_, tn) = (tp as f64, fp as f64, fn_ as f64, tn as f64);
-    let (positives, negatives, d) = (tp + fn_, fp + tn, 2.0 * tp + fp + fn_);
-    if positives == 0.0 || d == 0.0 {
+    if tp + fn_ == 0 {
         return Err(StatsError::TooFewObservations { what: "F1 CI (positives)", needed: 1, got: 0 });
     }
-    let var_tp = tp * fn_ / positives;
-    let var_fp = if negatives > 0.0 { fp * tn / negatives } else { 0.0 };
-    let var = 4.0 * ((positives + fp).powi(2) * var_tp + tp * tp * var_fp) / d.powi(4);
-    let z = Normal::new(0.0, 1.0)
-        .map_err(|e| StatsError::InvalidParameter { what: "normal distribution", detail: e.to_string() })?
-        .inverse_cdf(1.0 - (1.0 - level) / 2.0);
-    let f1 = 2.0 * tp / d;
-    Ok(((f1 - z * var.sqrt()).max(0.0), (f1 + z * var.sqrt()).min(1.0)))
+    let mut rng = SplitMix64([tp, fp, fn_, tn].iter().fold(0x5EED_F1C1, |h, &c| SplitMix64(h ^ c).next_u64()));
+    let (positives, negatives) = ((tp + fn_) as f64, (fp + tn) as f64);
+    let mut draws: Vec<f64> = (0..F1_CI_DRAWS)
+        .map(|_| {
+            let recall = rng.beta(tp as f64 + 0.5, fn_ as f64 + 0.5);
+            let fp_rate = if negatives > 0.0 { rng.beta(fp as f64 + 0.5, tn as f64 + 0.5) } else { 0.0 };
+            2.0 * positives * recall / (positives * recall + positives + negatives * fp_rate)
+        })
+        .collect();
+    draws.sort_by(f64::total_cmp);
+    let tail = (1.0 - level) / 2.0;
+    let f1 = 2.0 * tp as f64 / (2 * tp + fp + fn_) as f64;
+    Ok((quantile_sorted(&draws, tail).min(f1), quantile_sorted(&draws, 1.0 - tail).max(f1)))
 }
 
 /// Confusion counts over an ordered label set; `counts[true][predicted]`.
@@ -233,15 +245,40 @@ impl ConfusionMatrix {
 mod tests {
     use super::*;
 
+    /// The F1 posterior's `q`-quantile by quadrature, independent of the Monte Carlo in `f1_ci`:
+    /// P(F1 ≤ t) = E over recall of P(fpr ≥ P(recall(2 − t) − t) / (tN)), the expectation taken
+    /// at 2000 recall quantiles, then bisection on t.
+    fn f1_posterior_quantile(tp: u64, fp: u64, fn_: u64, tn: u64, q: f64) -> f64 {
+        use statrs::distribution::{Beta, ContinuousCDF};
+        let (p, n) = ((tp + fn_) as f64, (fp + tn) as f64);
+        let recall = Beta::new(tp as f64 + 0.5, fn_ as f64 + 0.5).unwrap();
+        let fp_rate = Beta::new(fp as f64 + 0.5, tn as f64 + 0.5).unwrap();
+        let r: Vec<f64> = (0..2000).map(|i| recall.inverse_cdf((i as f64 + 0.5) / 2000.0)).collect();
+        let cdf = |t: f64| r.iter().map(|&r| 1.0 - fp_rate.cdf((p * (r * (2.0 - t) - t) / (t * n)).clamp(0.0, 1.0))).sum::<f64>() / r.len() as f64;
+        let (mut low, mut high) = (1e-9, 1.0 - 1e-9);
+        for _ in 0..50 {
+            let mid = (low + high) / 2.0;
+            if cdf(mid) < q { low = mid } else { high = mid }
+        }
+        (low + high) / 2.0
+    }
+
     #[test]
-    fn f1_ci_by_the_delta_method_by_hand() {
-        // TP 8, FN 2 (P = 10), FP 1, TN 39 (N = 40): F1 = 16/19; Var(TP) = 1.6, Var(FP) = 0.975;
-        // Var(F1) = 4 (11² · 1.6 + 8² · 0.975) / 19⁴ = 1024 / 130321; z(0.975) = 1.959963984540054.
-        let (low, high) = f1_ci(8, 1, 2, 39, 0.95).unwrap();
-        let half = 1.959963984540054 * (1024f64 / 130321.0).sqrt();
-        assert!((low - (16.0 / 19.0 - half)).abs() < 1e-12 && (high - (16.0 / 19.0 + half).min(1.0)).abs() < 1e-12, "{low} {high}");
-        // Perfect recall and no false positive: no sampling variance in the plug-in, zero width.
-        assert_eq!(f1_ci(5, 0, 0, 10, 0.95).unwrap(), (1.0, 1.0));
+    fn f1_ci_is_the_jeffreys_posterior_interval() {
+        // Exp. 1 at 3 coders, an AU every coder found and nobody added (F1 = 1, N = 3 × 48), and a
+        // mixed case; the Monte Carlo endpoints agree with quadrature within their error.
+        for (tp, fp, fn_, tn) in [(3, 0, 0, 144), (8, 1, 2, 39), (14, 3, 6, 977)] {
+            let (low, high) = f1_ci(tp, fp, fn_, tn, 0.95).unwrap();
+            let f1 = 2.0 * tp as f64 / (2 * tp + fp + fn_) as f64;
+            let expected_low = f1_posterior_quantile(tp, fp, fn_, tn, 0.025).min(f1);
+            let expected_high = f1_posterior_quantile(tp, fp, fn_, tn, 0.975).max(f1);
+            assert!((low - expected_low).abs() < 0.012 && (high - expected_high).abs() < 0.012, "{tp} {fp} {fn_} {tn}: got ({low:.4}, {high:.4}), quadrature ({expected_low:.4}, {expected_high:.4})");
+            assert!(low <= f1 && f1 <= high);
+            assert_eq!(f1_ci(tp, fp, fn_, tn, 0.95).unwrap(), (low, high), "same counts, same interval");
+        }
+        // Every positive found and no false positive: an interval with width (the Wald one had none).
+        let (low, high) = f1_ci(3, 0, 0, 144, 0.95).unwrap();
+        assert!(high == 1.0 && low < 0.8, "({low}, {high})");
         assert!(f1_ci(0, 3, 0, 10, 0.95).is_err(), "no positives");
     }
     use crate::analysis::stats::test_support::*;

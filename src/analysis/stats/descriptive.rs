@@ -36,6 +36,14 @@ pub fn sem(x: &[f64]) -> Result<f64> {
     Ok(std_dev(x)? / (x.len() as f64).sqrt())
 }
 
+/// The `q`-quantile of sorted, non-empty values, interpolating linearly between order
+/// statistics (numpy's default, R type 7).
+pub fn quantile_sorted(sorted: &[f64], q: f64) -> f64 {
+    let h = (sorted.len() - 1) as f64 * q;
+    let (lo, hi) = (h.floor() as usize, h.ceil() as usize);
+    sorted[lo] + (h - lo as f64) * (sorted[hi] - sorted[lo])
+}
+
 /// Summary of one sample: n, mean, sample SD, SEM and the t-based CI of the mean.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Summary {
@@ -77,6 +85,13 @@ pub(crate) fn t_critical(level: f64, df: f64) -> Result<f64> {
 mod tests {
     use super::*;
     use crate::analysis::stats::test_support::*;
+
+    #[test]
+    fn quantiles_interpolate_as_numpy() {
+        // numpy.percentile([1, 2, 3, 4, 10], [2.5, 97.5]) = [1.1, 9.4].
+        let v = [1.0, 2.0, 3.0, 4.0, 10.0];
+        assert!((quantile_sorted(&v, 0.025) - 1.1).abs() < 1e-12 && (quantile_sorted(&v, 0.975) - 9.4).abs() < 1e-12);
+    }
 
     #[test]
     fn variance_uses_n_minus_1() {
