@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """AU calibration of the face engine, measured with MediaPipe FaceLandmarker.
 
-Two measurements, both on the eight evaluation people (`facslab identities`):
+Two measurements: floors on every person `facslab identities` lists, the table on the eight
+evaluation people (the first eight it lists; `--people` picks others):
 
   floors  renders PERSON__EXPR.png for the expressions the floor check lists (every AU at E that
           has a MediaPipe blendshape, the A..D ramps of AU4/12/26, the one-sided L/R AUs), runs
@@ -89,7 +90,7 @@ def render_all(facslab, jobs, workers):
 def floors(a):
     work = os.path.join(a.work, "floors")
     os.makedirs(work, exist_ok=True)
-    people = identities(a.facslab)
+    people = a.people or identities(a.facslab)
     render_all(a.facslab, [(e, p, os.path.join(work, f"{p}__{e}.png")) for p in people for e in FLOOR_EXPRESSIONS], a.workers)
     rows = os.path.join(a.work, "floors.jsonl")
     subprocess.run([sys.executable, os.path.join(a.validators, "raters.py"), work, "--json", rows, "--backends", "mp_tasks"],
@@ -121,7 +122,7 @@ def detect(lm, path):
 def table(a):
     work = os.path.join(a.work, "table")
     os.makedirs(work, exist_ok=True)
-    people = identities(a.facslab)
+    people = a.people or identities(a.facslab)[:8]
     codes = catalog_codes(os.path.dirname(os.path.dirname(HERE)))
     exprs = ["0"] + [f"{c}{lv}" for c in codes for lv in LEVELS]
     render_all(a.facslab, [(e, p, os.path.join(work, f"{p}__{e}.png")) for p in people for e in exprs], a.workers)
@@ -185,6 +186,8 @@ def main():
     ap.add_argument("--work", default="/tmp/facslab-calibrate")
     ap.add_argument("--results", default=RESULTS)
     ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--people", type=lambda s: s.split(","), default=None,
+                    help="comma-separated ids (default: floors on everyone, the table on the eight evaluation people)")
     a = ap.parse_args()
     a.validators = os.path.abspath(a.validators)
     sys.exit(floors(a) if a.mode == "floors" else table(a))
