@@ -50,6 +50,8 @@ pub struct HairModel {
     /// local movement the vertex follows (1 at the root, fading along the strand).
     root_vertex: Vec<u32>,
     root_follow: Vec<f32>,
+    /// The centre of the skull (of [`HEAD_CENTRE`]) for this person.
+    skull_centre: Vec3,
 }
 
 /// The hair cards of one frame.
@@ -57,6 +59,9 @@ pub struct Hair {
     pub positions: Vec<Vec3>,
     pub tangents: Vec<Vec3>,
     pub model: Arc<HairModel>,
+    /// A ball inside the posed head (centre, radius): what lies behind it, seen from a point,
+    /// is hidden by the head.
+    skull: (Vec3, f32),
 }
 
 /// One style's numbers.
@@ -283,6 +288,7 @@ impl HairModel {
             triangles_per_strand: 2 * shape.segments as u32,
             root_vertex: Vec::new(),
             root_follow: Vec::new(),
+            skull_centre: HEAD_CENTRE + offset,
         };
         for (n, root) in roots.iter().enumerate() {
             let points = grow(root, n as u32, identity, &shape, &head);
@@ -377,7 +383,46 @@ impl HairModel {
             })
             .collect();
         let tangents = self.tangents.iter().map(|&t| rotation * t).collect();
-        Hair { positions, tangents, model: Arc::clone(self) }
+        let skull = skull_ball(moved(self.skull_centre), &posed.positions[..model.part(Part::Skin).vertices.end as usize]);
+        Hair { positions, tangents, model: Arc::clone(self), skull }
+    }
+}
+
+/// Share of the skin's nearest distance from the skull centre taken as the ball's radius (a
+/// margin for the skin between vertices and for rounding).
+const SKULL_BALL_SHARE: f32 = 0.9;
+
+/// A ball around `centre` that the closed skin encloses: its radius is a share of the nearest
+/// skin vertex's distance.
+fn skull_ball(centre: Vec3, skin: &[Vec3]) -> (Vec3, f32) {
+    let nearest = skin.iter().map(|&p| (p - centre).length_squared()).fold(f32::INFINITY, f32::min);
+    (centre, SKULL_BALL_SHARE * nearest.sqrt())
+}
+
+impl Hair {
+    /// The cards' triangles as seen from `eye`, those hidden behind the skull replaced by a
+    /// degenerate triangle (so that every other keeps its index, which names its strand).
+    ///
+    /// A point is hidden when the segment from it to `eye` passes through the skull's ball:
+    /// that segment leaves the closed head through skin nearer to `eye`. The points hidden
+    /// this way make a convex set, so a triangle whose three corners are hidden is hidden
+    /// whole: dropping it changes no pixel, and the picture stays the same bytes.
+    pub fn seen_from(&self, eye: Vec3) -> Vec<[u32; 3]> {
+        let (centre, radius) = self.skull;
+        let hidden: Vec<bool> = self
+            .positions
+            .iter()
+            .map(|&p| {
+                let along = eye - p;
+                let t = ((centre - p).dot(along) / along.length_squared()).clamp(0.0, 1.0);
+                (p + along * t - centre).length_squared() < radius * radius
+            })
+            .collect();
+        self.model
+            .triangles
+            .iter()
+            .map(|&[a, b, c]| if hidden[a as usize] && hidden[b as usize] && hidden[c as usize] { [a, a, a] } else { [a, b, c] })
+            .collect()
     }
 }
 
@@ -553,6 +598,47 @@ mod tests {
         let frame = hair.posed(model, &posed);
         let worst = frame.positions.iter().zip(&hair.positions).map(|(a, b)| (*a - *b).length()).fold(0.0, f32::max);
         assert!(worst < 1e-3, "{worst}");
+    }
+
+    /// Whether the segment from `p` to `q` crosses the triangle `t` (Möller–Trumbore).
+    fn crosses(p: Vec3, q: Vec3, [a, b, c]: [Vec3; 3]) -> bool {
+        let d = q - p;
+        let (e1, e2) = (b - a, c - a);
+        let h = d.cross(e2);
+        let det = e1.dot(h);
+        if det.abs() < 1e-12 {
+            return false;
+        }
+        let s = p - a;
+        let u = s.dot(h) / det;
+        let qv = s.cross(e1);
+        let v = d.dot(qv) / det;
+        let t = e2.dot(qv) / det;
+        u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t > 0.0 && t < 1.0
+    }
+
+    /// Every card corner that [`Hair::seen_from`] takes for hidden has head (skin, eyes,
+    /// mouth) between it and the eye, for heads turned and tilted too; and a fair share of
+    /// the hair is hidden from the portrait camera.
+    #[test]
+    fn hair_taken_for_hidden_has_the_head_in_front_of_it() {
+        let model = FaceModel::embedded();
+        for (id, expression) in [("wm1", "0"), ("wf1", "43+51+61"), ("bf1", "53+64+26")] {
+            let identity = IdentityTable::built_in().get(id).unwrap().clone();
+            let expression = crate::facs::Catalog::built_in().parse(expression).unwrap();
+            let posed = crate::engine::pose_expression(&expression, &identity).unwrap();
+            let hair = HairModel::cached(model, &identity, &posed.neutral).posed(model, &posed);
+            let eye = crate::engine::portrait_camera(posed.anchor, 1, 1).eye;
+            let seen = hair.seen_from(eye);
+            let hidden: Vec<u32> = seen.iter().filter(|t| t[0] == t[1]).map(|t| t[0]).collect();
+            assert!(hidden.len() * 10 > seen.len(), "{id}: only {} of {} triangles hidden", hidden.len(), seen.len());
+            let head: Vec<[Vec3; 3]> =
+                Part::ALL.iter().flat_map(|&part| model.part(part).triangles.iter().map(|t| t.map(|v| posed.positions[v as usize]))).collect();
+            for &v in hidden.iter().step_by(97) {
+                let p = hair.positions[v as usize];
+                assert!(head.iter().any(|&t| crosses(p, eye, t)), "{id}: hair vertex {v} at {p} is taken for hidden but in view");
+            }
+        }
     }
 
     #[test]
