@@ -4,7 +4,8 @@
 //!
 //! In: the face model, the identity and its neutral head. Out: [`HairModel`] (cached per
 //! person): card vertices in the neutral head's space with the strand direction (tangent) and
-//! `uv` (across, along) per vertex, per-strand tone and greyness; [`HairModel::posed`] moves
+//! `uv` (across, along) per vertex, per-strand tone and share of white fibres (greying is drawn
+//! fibre by fibre across a card, not card by card); [`HairModel::posed`] moves
 //! the cards with the head for one frame (the head's rigid motion plus the local movement of
 //! each strand's root).
 //!
@@ -34,6 +35,8 @@ const MAP_POLAR: usize = 48;
 const MAP_AZIMUTH: usize = 96;
 
 /// Hair cards of one person in the neutral head's space.
+///
+/// Vertices come in rows: `2k` and `2k + 1` lie across a card at the same point of its strand.
 pub struct HairModel {
     pub positions: Vec<Vec3>,
     /// Unit direction of the strand at each vertex (root to tip).
@@ -41,7 +44,8 @@ pub struct HairModel {
     /// `x` across the card (0..1), `y` along the strand (0 at the root, 1 at the tip).
     pub uvs: Vec<Vec2>,
     pub triangles: Vec<[u32; 3]>,
-    /// Per strand: brightness factor and grey (0 = pigmented, 1 = white).
+    /// Per strand: brightness factor, and the share of its fibres that are white (see
+    /// [`HairModel::fibre_grey`]).
     pub strand_tone: Vec<f32>,
     pub strand_grey: Vec<f32>,
     /// Triangles per strand (every strand has the same number).
@@ -98,15 +102,15 @@ fn style_shape(style: HairStyle, texture: HairTexture) -> StyleShape {
         gather: None,
     };
     match style {
-        HairStyle::Cropped => base(0.05, 0.04, 1100.0, 2, 0.010, 0.05, 0.0),
+        HairStyle::Cropped => base(0.05, 0.04, 600.0, 2, 0.015, 0.05, 0.0),
         HairStyle::Short if coiled => base(0.12, 0.1, 1200.0, 5, 0.02, 0.6, 0.0),
-        HairStyle::Short => base(0.32, 0.16, 900.0, 7, 0.012, 0.06, 1.0),
+        HairStyle::Short => base(0.32, 0.16, 450.0, 7, 0.02, 0.06, 1.0),
         HairStyle::Medium if coiled => base(0.38, 0.34, 1000.0, 8, 0.024, 0.7, 0.3),
-        HairStyle::Medium => base(1.0, 0.9, 700.0, 12, 0.016, 0.05, 2.5),
-        HairStyle::Shoulder => base(1.75, 1.6, 800.0, 16, 0.016, 0.05, 3.0),
-        HairStyle::Long => base(2.7, 2.5, 800.0, 20, 0.016, 0.05, 3.0),
-        HairStyle::Bun => StyleShape { gather: Some(Vec3::new(0.0, 8.15, -0.42)), hug: 0.85, ..base(1.2, 0.9, 700.0, 12, 0.014, 0.02, 0.0) },
-        HairStyle::Ponytail => StyleShape { gather: Some(Vec3::new(0.0, 7.85, -0.5)), hug: 0.85, ..base(1.2, 0.9, 700.0, 12, 0.014, 0.02, 0.0) },
+        HairStyle::Medium => base(1.0, 0.9, 380.0, 12, 0.025, 0.05, 2.5),
+        HairStyle::Shoulder => base(1.75, 1.6, 420.0, 16, 0.025, 0.05, 3.0),
+        HairStyle::Long => base(2.7, 2.5, 420.0, 20, 0.025, 0.05, 3.0),
+        HairStyle::Bun => StyleShape { gather: Some(Vec3::new(0.0, 8.15, -0.42)), hug: 0.85, ..base(1.2, 0.9, 380.0, 12, 0.022, 0.02, 0.0) },
+        HairStyle::Ponytail => StyleShape { gather: Some(Vec3::new(0.0, 7.85, -0.5)), hug: 0.85, ..base(1.2, 0.9, 380.0, 12, 0.022, 0.02, 0.0) },
     }
 }
 
@@ -221,6 +225,15 @@ fn keep_clear_of_face_and_shoulders(mut p: Vec3) -> Vec3 {
     p
 }
 
+/// Fibres drawn side by side across one card (for greying).
+pub const FIBRES_PER_CARD: f32 = 9.0;
+
+/// The share of white fibres in strand `n` of a person whose hair is `grey` (0..1) grey:
+/// about `grey`, varying a little from strand to strand.
+fn greying(grey: f32, n: u32) -> f32 {
+    if grey <= 0.0 { 0.0 } else { (grey * (0.7 + 0.6 * hash01(n, 9, 3))).min(1.0) }
+}
+
 /// Fixed hash of a few integers to [0, 1).
 fn hash01(a: u32, b: u32, c: u32) -> f32 {
     let mut h = a.wrapping_mul(0x9e37_79b1) ^ b.wrapping_mul(0x85eb_ca77) ^ c.wrapping_mul(0xc2b2_ae3d);
@@ -294,7 +307,7 @@ impl HairModel {
             let points = grow(root, n as u32, identity, &shape, &head);
             hair.add_card(&points, root.vertex, shape.width * (0.7 + 0.6 * hash01(n as u32, 7, 1)));
             hair.strand_tone.push(0.8 + 0.4 * hash01(n as u32, 8, 2));
-            hair.strand_grey.push(if hash01(n as u32, 9, 3) < identity.hair_grey { 0.75 + 0.25 * hash01(n as u32, 10, 4) } else { 0.0 });
+            hair.strand_grey.push(greying(identity.hair_grey, n as u32));
         }
         if let (HairStyle::Bun, Some(centre)) = (identity.hair_style, shape.gather) {
             hair.add_bun(centre, &shape, roots.first().map_or(0, |r| r.vertex), identity.hair_grey);
@@ -314,7 +327,7 @@ impl HairModel {
             let to_eye = (VIEW_FROM - p).normalize();
             let side = tangent.cross(to_eye).normalize_or(Vec3::X);
             let t = k as f32 / last as f32;
-            let half = width * (1.0 - 0.75 * t * t);
+            let half = width * (1.0 - 0.5 * t * t);
             for (s, u) in [(-1.0, 0.0), (1.0, 1.0)] {
                 self.positions.push(p + side * (half * s));
                 self.tangents.push(tangent);
@@ -349,8 +362,20 @@ impl HairModel {
                 .collect();
             self.add_card(&points, root_vertex, shape.width * 1.2);
             self.strand_tone.push(0.8 + 0.4 * hash01(n, 15, 9));
-            self.strand_grey.push(if hash01(n, 16, 10) < grey { 0.8 } else { 0.0 });
+            self.strand_grey.push(greying(grey, n));
         }
+    }
+
+    /// How white the fibre at `across` (0..1 across the card) of `strand` is (0 = pigmented):
+    /// greying shows fibre by fibre, salt and pepper, not card by card.
+    pub fn fibre_grey(&self, strand: usize, across: f32) -> f32 {
+        let share = self.strand_grey.get(strand).copied().unwrap_or(0.0);
+        if share <= 0.0 {
+            return 0.0;
+        }
+        let fibre = (across.clamp(0.0, 1.0) * FIBRES_PER_CARD) as u32;
+        let n = strand as u32;
+        if hash01(n, fibre, 17) < share { 0.75 + 0.25 * hash01(n, fibre, 18) } else { 0.0 }
     }
 
     /// The cards of one frame: moved with the head's rigid motion (from three scalp points),
@@ -639,6 +664,29 @@ mod tests {
                 assert!(head.iter().any(|&t| crosses(p, eye, t)), "{id}: hair vertex {v} at {p} is taken for hidden but in view");
             }
         }
+    }
+
+    /// Greying is salt and pepper: most grey-haired cards mix white and pigmented fibres (a
+    /// card all white or all dark reads as a stripe), and about the person's share of fibres
+    /// is white.
+    #[test]
+    fn greying_mixes_white_and_pigmented_fibres_within_a_card() {
+        let model = FaceModel::embedded();
+        let (mut identity, posed) = neutral("wm2");
+        identity.hair_grey = 0.4;
+        let hair = HairModel::new(model, &identity, &posed.neutral);
+        let strands = hair.strand_grey.len();
+        let fibres = FIBRES_PER_CARD as usize;
+        let white: Vec<usize> = (0..strands)
+            .map(|s| (0..fibres).filter(|&k| hair.fibre_grey(s, (k as f32 + 0.5) / FIBRES_PER_CARD) > 0.0).count())
+            .collect();
+        let mixed = white.iter().filter(|&&w| w > 0 && w < fibres).count();
+        assert!(mixed * 10 > strands * 8, "{mixed} of {strands} cards mix white and pigmented fibres");
+        let share = white.iter().sum::<usize>() as f32 / (strands * fibres) as f32;
+        assert!((share - 0.4).abs() < 0.05, "{share} of the fibres are white");
+        identity.hair_grey = 0.0;
+        let dark = HairModel::new(model, &identity, &posed.neutral);
+        assert!((0..dark.strand_grey.len()).all(|s| dark.fibre_grey(s, 0.5) == 0.0));
     }
 
     #[test]

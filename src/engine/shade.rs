@@ -20,7 +20,7 @@ use glam::{Vec2, Vec3};
 use super::asset::{FaceModel, Part};
 use super::body::Body;
 use super::identity::Identity;
-use super::hair::Hair;
+use super::hair::{FIBRES_PER_CARD, Hair};
 use super::{BODY_PART, HAIR_PART};
 use super::look::{Backdrop, Lighting, Look};
 use super::pose::Posed;
@@ -99,6 +99,28 @@ impl ShadowMap {
         }
         lit / 9.0
     }
+}
+
+/// The key light reaching each hair card vertex, looked up once per row of a card (the two
+/// vertices across the strand at one of its points share the value) and only for the rows of
+/// cards the camera sees (`seen`, see [`Hair::seen_from`]); 1 elsewhere. Hair has no normal
+/// to offset along: the lookup is nudged toward the light (`key`) instead.
+fn hair_key_light(hair: &Hair, seen: &[[u32; 3]], shadow: &ShadowMap, key: Vec3) -> Vec<f32> {
+    let mut row_seen = vec![false; hair.positions.len() / 2];
+    for &[a, b, c] in seen {
+        if a != b {
+            for v in [a, b, c] {
+                row_seen[v as usize / 2] = true;
+            }
+        }
+    }
+    let mut light = vec![1.0; hair.positions.len()];
+    for ((row, pair), seen) in light.chunks_exact_mut(2).zip(hair.positions.chunks_exact(2)).zip(row_seen) {
+        if seen {
+            row.fill(shadow.light((pair[0] + pair[1]) * 0.5 + key * 0.03));
+        }
+    }
+    light
 }
 
 /// Slowly varying painted features and region weights of one skin vertex, interpolated across
@@ -287,23 +309,8 @@ impl<'a> FaceShader<'a> {
             Some(body) => body.positions.iter().zip(&body.normals).map(|(&p, &n)| shadow.light(p + n * 0.02)).collect(),
             None => Vec::new(),
         };
-        // Hair has no normal to offset along: the lookup is nudged toward the light instead.
         let key = self.lighting.lights[0].direction;
-        // Only the corners of the cards the camera sees are looked up.
-        let hair_key_light = match self.hair {
-            Some(hair) => {
-                let mut seen = vec![false; hair.positions.len()];
-                for &[a, b, c] in self.hair_seen {
-                    if a != b {
-                        for v in [a, b, c] {
-                            seen[v as usize] = true;
-                        }
-                    }
-                }
-                hair.positions.iter().zip(seen).map(|(&p, seen)| if seen { shadow.light(p + key * 0.03) } else { 1.0 }).collect()
-            }
-            None => Vec::new(),
-        };
+        let hair_key_light = self.hair.map_or_else(Vec::new, |hair| hair_key_light(hair, self.hair_seen, shadow, key));
         FaceShader { key_light, body_key_light, hair_key_light, ..self }
     }
 
@@ -516,12 +523,12 @@ impl<'a> FaceShader<'a> {
         let model = &hair.model;
         let strand = (f.triangle / model.triangles_per_strand) as usize;
         let tone = model.strand_tone.get(strand).copied().unwrap_or(1.0);
-        let grey = model.strand_grey.get(strand).copied().unwrap_or(0.0);
+        let grey = model.fibre_grey(strand, f.uv.x);
         // Greying: white strands among pigmented ones, which themselves lose some colour.
         let faded = self.identity.hair.lerp(Vec3::splat(self.identity.hair.dot(Vec3::splat(1.0 / 3.0))), 0.4 * self.identity.hair_grey);
         let pigment = faded.lerp(Vec3::new(0.4, 0.4, 0.38), grey);
-        let fibres = 0.72 + 0.28 * value_noise(Vec3::new(f.uv.x * 7.0, f.uv.y * 3.0, strand as f32 * 1.618));
-        let rooted = 0.45 + 0.55 * smoothstep(0.0, 0.35, f.uv.y);
+        let fibres = 0.72 + 0.28 * value_noise(Vec3::new(f.uv.x * FIBRES_PER_CARD, f.uv.y * 3.0, strand as f32 * 1.618));
+        let rooted = 0.65 + 0.35 * smoothstep(0.0, 0.35, f.uv.y);
         let albedo = pigment * tone * fibres * rooted;
         let tangent = f.normal;
         let view = f.view_dir;
