@@ -8,6 +8,26 @@
 
 use glam::{Mat4, Vec3, Vec4};
 
+/// View space → homogeneous pixel coordinates of one camera (see
+/// [`Camera::view_to_homogeneous_pixel`]).
+#[derive(Clone, Copy, Debug)]
+pub struct PixelProjection {
+    half_width: f32,
+    half_height: f32,
+    focal: f32,
+    /// The focal length over the aspect ratio.
+    focal_x: f32,
+}
+
+impl PixelProjection {
+    pub fn apply(&self, v: Vec3) -> Vec3 {
+        let w = -v.z;
+        let x = self.half_width * (self.focal_x * v.x + w);
+        let y = self.half_height * (w - self.focal * v.y);
+        Vec3::new(x, y, w)
+    }
+}
+
 /// A perspective camera rendering a `width` × `height` image (square pixels).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
@@ -54,12 +74,15 @@ impl Camera {
     ///
     /// The map is linear, so clipping and interpolation can be done on `(X, Y, w)`.
     pub fn view_to_homogeneous_pixel(&self, v: Vec3) -> Vec3 {
+        self.pixel_projection().apply(v)
+    }
+
+    /// [`Camera::view_to_homogeneous_pixel`] with its constants worked out once, for mapping
+    /// many points (the same numbers, bit for bit).
+    pub fn pixel_projection(&self) -> PixelProjection {
         let (w_px, h_px) = (self.width as f32, self.height as f32);
         let f = self.focal();
-        let w = -v.z;
-        let x = 0.5 * w_px * (f / self.aspect() * v.x + w);
-        let y = 0.5 * h_px * (w - f * v.y);
-        Vec3::new(x, y, w)
+        PixelProjection { half_width: 0.5 * w_px, half_height: 0.5 * h_px, focal: f, focal_x: f / self.aspect() }
     }
 
     /// World point → (pixel x, pixel y, view distance along the axis), or `None` when the point

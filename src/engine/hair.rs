@@ -4,7 +4,8 @@
 //!
 //! In: the face model, the identity and its neutral head. Out: [`HairModel`] (cached per
 //! person): card vertices in the neutral head's space with the strand direction (tangent) and
-//! `uv` (across, along) per vertex, per-strand tone and greyness; [`HairModel::posed`] moves
+//! `uv` (across, along) per vertex, per-strand tone and share of white fibres (greying is drawn
+//! fibre by fibre across a card, not card by card); [`HairModel::posed`] moves
 //! the cards with the head for one frame (the head's rigid motion plus the local movement of
 //! each strand's root).
 //!
@@ -34,6 +35,8 @@ const MAP_POLAR: usize = 48;
 const MAP_AZIMUTH: usize = 96;
 
 /// Hair cards of one person in the neutral head's space.
+///
+/// Vertices come in rows: `2k` and `2k + 1` lie across a card at the same point of its strand.
 pub struct HairModel {
     pub positions: Vec<Vec3>,
     /// Unit direction of the strand at each vertex (root to tip).
@@ -41,7 +44,8 @@ pub struct HairModel {
     /// `x` across the card (0..1), `y` along the strand (0 at the root, 1 at the tip).
     pub uvs: Vec<Vec2>,
     pub triangles: Vec<[u32; 3]>,
-    /// Per strand: brightness factor and grey (0 = pigmented, 1 = white).
+    /// Per strand: brightness factor, and the share of its fibres that are white (see
+    /// [`HairModel::fibre_grey`]).
     pub strand_tone: Vec<f32>,
     pub strand_grey: Vec<f32>,
     /// Triangles per strand (every strand has the same number).
@@ -50,6 +54,8 @@ pub struct HairModel {
     /// local movement the vertex follows (1 at the root, fading along the strand).
     root_vertex: Vec<u32>,
     root_follow: Vec<f32>,
+    /// The centre of the skull (of [`HEAD_CENTRE`]) for this person.
+    skull_centre: Vec3,
 }
 
 /// The hair cards of one frame.
@@ -57,6 +63,9 @@ pub struct Hair {
     pub positions: Vec<Vec3>,
     pub tangents: Vec<Vec3>,
     pub model: Arc<HairModel>,
+    /// A ball inside the posed head (centre, radius): what lies behind it, seen from a point,
+    /// is hidden by the head.
+    skull: (Vec3, f32),
 }
 
 /// One style's numbers.
@@ -93,15 +102,15 @@ fn style_shape(style: HairStyle, texture: HairTexture) -> StyleShape {
         gather: None,
     };
     match style {
-        HairStyle::Cropped => base(0.05, 0.04, 1100.0, 2, 0.010, 0.05, 0.0),
+        HairStyle::Cropped => base(0.05, 0.04, 600.0, 2, 0.015, 0.05, 0.0),
         HairStyle::Short if coiled => base(0.12, 0.1, 1200.0, 5, 0.02, 0.6, 0.0),
-        HairStyle::Short => base(0.32, 0.16, 900.0, 7, 0.012, 0.06, 1.0),
+        HairStyle::Short => base(0.32, 0.16, 450.0, 7, 0.02, 0.06, 1.0),
         HairStyle::Medium if coiled => base(0.38, 0.34, 1000.0, 8, 0.024, 0.7, 0.3),
-        HairStyle::Medium => base(1.0, 0.9, 700.0, 12, 0.016, 0.05, 2.5),
-        HairStyle::Shoulder => base(1.75, 1.6, 800.0, 16, 0.016, 0.05, 3.0),
-        HairStyle::Long => base(2.7, 2.5, 800.0, 20, 0.016, 0.05, 3.0),
-        HairStyle::Bun => StyleShape { gather: Some(Vec3::new(0.0, 8.15, -0.42)), hug: 0.85, ..base(1.2, 0.9, 700.0, 12, 0.014, 0.02, 0.0) },
-        HairStyle::Ponytail => StyleShape { gather: Some(Vec3::new(0.0, 7.85, -0.5)), hug: 0.85, ..base(1.2, 0.9, 700.0, 12, 0.014, 0.02, 0.0) },
+        HairStyle::Medium => base(1.0, 0.9, 380.0, 12, 0.025, 0.05, 2.5),
+        HairStyle::Shoulder => base(1.75, 1.6, 420.0, 16, 0.025, 0.05, 3.0),
+        HairStyle::Long => base(2.7, 2.5, 420.0, 20, 0.025, 0.05, 3.0),
+        HairStyle::Bun => StyleShape { gather: Some(Vec3::new(0.0, 8.15, -0.42)), hug: 0.85, ..base(1.2, 0.9, 380.0, 12, 0.022, 0.02, 0.0) },
+        HairStyle::Ponytail => StyleShape { gather: Some(Vec3::new(0.0, 7.85, -0.5)), hug: 0.85, ..base(1.2, 0.9, 380.0, 12, 0.022, 0.02, 0.0) },
     }
 }
 
@@ -216,6 +225,15 @@ fn keep_clear_of_face_and_shoulders(mut p: Vec3) -> Vec3 {
     p
 }
 
+/// Fibres drawn side by side across one card (for greying).
+pub const FIBRES_PER_CARD: f32 = 9.0;
+
+/// The share of white fibres in strand `n` of a person whose hair is `grey` (0..1) grey:
+/// about `grey`, varying a little from strand to strand.
+fn greying(grey: f32, n: u32) -> f32 {
+    if grey <= 0.0 { 0.0 } else { (grey * (0.7 + 0.6 * hash01(n, 9, 3))).min(1.0) }
+}
+
 /// Fixed hash of a few integers to [0, 1).
 fn hash01(a: u32, b: u32, c: u32) -> f32 {
     let mut h = a.wrapping_mul(0x9e37_79b1) ^ b.wrapping_mul(0x85eb_ca77) ^ c.wrapping_mul(0xc2b2_ae3d);
@@ -283,12 +301,13 @@ impl HairModel {
             triangles_per_strand: 2 * shape.segments as u32,
             root_vertex: Vec::new(),
             root_follow: Vec::new(),
+            skull_centre: HEAD_CENTRE + offset,
         };
         for (n, root) in roots.iter().enumerate() {
             let points = grow(root, n as u32, identity, &shape, &head);
             hair.add_card(&points, root.vertex, shape.width * (0.7 + 0.6 * hash01(n as u32, 7, 1)));
             hair.strand_tone.push(0.8 + 0.4 * hash01(n as u32, 8, 2));
-            hair.strand_grey.push(if hash01(n as u32, 9, 3) < identity.hair_grey { 0.75 + 0.25 * hash01(n as u32, 10, 4) } else { 0.0 });
+            hair.strand_grey.push(greying(identity.hair_grey, n as u32));
         }
         if let (HairStyle::Bun, Some(centre)) = (identity.hair_style, shape.gather) {
             hair.add_bun(centre, &shape, roots.first().map_or(0, |r| r.vertex), identity.hair_grey);
@@ -308,7 +327,7 @@ impl HairModel {
             let to_eye = (VIEW_FROM - p).normalize();
             let side = tangent.cross(to_eye).normalize_or(Vec3::X);
             let t = k as f32 / last as f32;
-            let half = width * (1.0 - 0.75 * t * t);
+            let half = width * (1.0 - 0.5 * t * t);
             for (s, u) in [(-1.0, 0.0), (1.0, 1.0)] {
                 self.positions.push(p + side * (half * s));
                 self.tangents.push(tangent);
@@ -343,8 +362,20 @@ impl HairModel {
                 .collect();
             self.add_card(&points, root_vertex, shape.width * 1.2);
             self.strand_tone.push(0.8 + 0.4 * hash01(n, 15, 9));
-            self.strand_grey.push(if hash01(n, 16, 10) < grey { 0.8 } else { 0.0 });
+            self.strand_grey.push(greying(grey, n));
         }
+    }
+
+    /// How white the fibre at `across` (0..1 across the card) of `strand` is (0 = pigmented):
+    /// greying shows fibre by fibre, salt and pepper, not card by card.
+    pub fn fibre_grey(&self, strand: usize, across: f32) -> f32 {
+        let share = self.strand_grey.get(strand).copied().unwrap_or(0.0);
+        if share <= 0.0 {
+            return 0.0;
+        }
+        let fibre = (across.clamp(0.0, 1.0) * FIBRES_PER_CARD) as u32;
+        let n = strand as u32;
+        if hash01(n, fibre, 17) < share { 0.75 + 0.25 * hash01(n, fibre, 18) } else { 0.0 }
     }
 
     /// The cards of one frame: moved with the head's rigid motion (from three scalp points),
@@ -377,7 +408,46 @@ impl HairModel {
             })
             .collect();
         let tangents = self.tangents.iter().map(|&t| rotation * t).collect();
-        Hair { positions, tangents, model: Arc::clone(self) }
+        let skull = skull_ball(moved(self.skull_centre), &posed.positions[..model.part(Part::Skin).vertices.end as usize]);
+        Hair { positions, tangents, model: Arc::clone(self), skull }
+    }
+}
+
+/// Share of the skin's nearest distance from the skull centre taken as the ball's radius (a
+/// margin for the skin between vertices and for rounding).
+const SKULL_BALL_SHARE: f32 = 0.9;
+
+/// A ball around `centre` that the closed skin encloses: its radius is a share of the nearest
+/// skin vertex's distance.
+fn skull_ball(centre: Vec3, skin: &[Vec3]) -> (Vec3, f32) {
+    let nearest = skin.iter().map(|&p| (p - centre).length_squared()).fold(f32::INFINITY, f32::min);
+    (centre, SKULL_BALL_SHARE * nearest.sqrt())
+}
+
+impl Hair {
+    /// The cards' triangles as seen from `eye`, those hidden behind the skull replaced by a
+    /// degenerate triangle (so that every other keeps its index, which names its strand).
+    ///
+    /// A point is hidden when the segment from it to `eye` passes through the skull's ball:
+    /// that segment leaves the closed head through skin nearer to `eye`. The points hidden
+    /// this way make a convex set, so a triangle whose three corners are hidden is hidden
+    /// whole: dropping it changes no pixel, and the picture stays the same bytes.
+    pub fn seen_from(&self, eye: Vec3) -> Vec<[u32; 3]> {
+        let (centre, radius) = self.skull;
+        let hidden: Vec<bool> = self
+            .positions
+            .iter()
+            .map(|&p| {
+                let along = eye - p;
+                let t = ((centre - p).dot(along) / along.length_squared()).clamp(0.0, 1.0);
+                (p + along * t - centre).length_squared() < radius * radius
+            })
+            .collect();
+        self.model
+            .triangles
+            .iter()
+            .map(|&[a, b, c]| if hidden[a as usize] && hidden[b as usize] && hidden[c as usize] { [a, a, a] } else { [a, b, c] })
+            .collect()
     }
 }
 
@@ -553,6 +623,70 @@ mod tests {
         let frame = hair.posed(model, &posed);
         let worst = frame.positions.iter().zip(&hair.positions).map(|(a, b)| (*a - *b).length()).fold(0.0, f32::max);
         assert!(worst < 1e-3, "{worst}");
+    }
+
+    /// Whether the segment from `p` to `q` crosses the triangle `t` (Möller–Trumbore).
+    fn crosses(p: Vec3, q: Vec3, [a, b, c]: [Vec3; 3]) -> bool {
+        let d = q - p;
+        let (e1, e2) = (b - a, c - a);
+        let h = d.cross(e2);
+        let det = e1.dot(h);
+        if det.abs() < 1e-12 {
+            return false;
+        }
+        let s = p - a;
+        let u = s.dot(h) / det;
+        let qv = s.cross(e1);
+        let v = d.dot(qv) / det;
+        let t = e2.dot(qv) / det;
+        u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t > 0.0 && t < 1.0
+    }
+
+    /// Every card corner that [`Hair::seen_from`] takes for hidden has head (skin, eyes,
+    /// mouth) between it and the eye, for heads turned and tilted too; and a fair share of
+    /// the hair is hidden from the portrait camera.
+    #[test]
+    fn hair_taken_for_hidden_has_the_head_in_front_of_it() {
+        let model = FaceModel::embedded();
+        for (id, expression) in [("wm1", "0"), ("wf1", "43+51+61"), ("bf1", "53+64+26")] {
+            let identity = IdentityTable::built_in().get(id).unwrap().clone();
+            let expression = crate::facs::Catalog::built_in().parse(expression).unwrap();
+            let posed = crate::engine::pose_expression(&expression, &identity).unwrap();
+            let hair = HairModel::cached(model, &identity, &posed.neutral).posed(model, &posed);
+            let eye = crate::engine::portrait_camera(posed.anchor, 1, 1).eye;
+            let seen = hair.seen_from(eye);
+            let hidden: Vec<u32> = seen.iter().filter(|t| t[0] == t[1]).map(|t| t[0]).collect();
+            assert!(hidden.len() * 10 > seen.len(), "{id}: only {} of {} triangles hidden", hidden.len(), seen.len());
+            let head: Vec<[Vec3; 3]> =
+                Part::ALL.iter().flat_map(|&part| model.part(part).triangles.iter().map(|t| t.map(|v| posed.positions[v as usize]))).collect();
+            for &v in hidden.iter().step_by(97) {
+                let p = hair.positions[v as usize];
+                assert!(head.iter().any(|&t| crosses(p, eye, t)), "{id}: hair vertex {v} at {p} is taken for hidden but in view");
+            }
+        }
+    }
+
+    /// Greying is salt and pepper: most grey-haired cards mix white and pigmented fibres (a
+    /// card all white or all dark reads as a stripe), and about the person's share of fibres
+    /// is white.
+    #[test]
+    fn greying_mixes_white_and_pigmented_fibres_within_a_card() {
+        let model = FaceModel::embedded();
+        let (mut identity, posed) = neutral("wm2");
+        identity.hair_grey = 0.4;
+        let hair = HairModel::new(model, &identity, &posed.neutral);
+        let strands = hair.strand_grey.len();
+        let fibres = FIBRES_PER_CARD as usize;
+        let white: Vec<usize> = (0..strands)
+            .map(|s| (0..fibres).filter(|&k| hair.fibre_grey(s, (k as f32 + 0.5) / FIBRES_PER_CARD) > 0.0).count())
+            .collect();
+        let mixed = white.iter().filter(|&&w| w > 0 && w < fibres).count();
+        assert!(mixed * 10 > strands * 8, "{mixed} of {strands} cards mix white and pigmented fibres");
+        let share = white.iter().sum::<usize>() as f32 / (strands * fibres) as f32;
+        assert!((share - 0.4).abs() < 0.05, "{share} of the fibres are white");
+        identity.hair_grey = 0.0;
+        let dark = HairModel::new(model, &identity, &posed.neutral);
+        assert!((0..dark.strand_grey.len()).all(|s| dark.fibre_grey(s, 0.5) == 0.0));
     }
 
     #[test]

@@ -78,6 +78,8 @@ impl Default for FrameSettings {
 /// The portrait camera: about a metre in front of the face, level with the eyes, framing the
 /// head, the neck and the top of the shoulders. `anchor` is the midpoint of the eyes at rest.
 pub fn portrait_camera(anchor: Vec3, width: u32, height: u32) -> Camera {
+    // Scene::new works out what the eye sees from the camera with any size: keep the eye
+    // independent of the size.
     let target = anchor + Vec3::new(0.0, -0.22, 0.0);
     Camera { eye: target + Vec3::new(0.0, 0.25, 11.0), target, up: Vec3::Y, fov_y_degrees: 17.0, width, height }
 }
@@ -133,16 +135,25 @@ struct Scene {
     model: &'static FaceModel,
     body: body::Body,
     hair: hair::Hair,
+    /// The hair's triangles as the portrait camera sees them (hidden ones degenerate).
+    hair_seen: Vec<[u32; 3]>,
 }
 
 impl Scene {
     fn new(posed: &Posed, identity: &Identity) -> Scene {
         let model = FaceModel::embedded();
         let hair = hair::HairModel::cached(model, identity, &posed.neutral).posed(model, posed);
-        Scene { model, body: body::Body::new(model, posed, identity), hair }
+        let hair_seen = hair.seen_from(portrait_camera(posed.anchor, 1, 1).eye);
+        Scene { model, body: body::Body::new(model, posed, identity), hair, hair_seen }
     }
 
+    /// The scene items as the camera sees them: the head's parts, the body and the hair.
     fn items<'a>(&'a self, posed: &'a Posed) -> Vec<Triangles<'a>> {
+        self.items_with_hair(posed, &self.hair_seen)
+    }
+
+    /// The scene items with the hair's triangles given by `hair_triangles`.
+    fn items_with_hair<'a>(&'a self, posed: &'a Posed, hair_triangles: &'a [[u32; 3]]) -> Vec<Triangles<'a>> {
         let mut items: Vec<Triangles<'a>> = Part::ALL
             .iter()
             .map(|&part| Triangles {
@@ -162,7 +173,7 @@ impl Scene {
             positions: &hair.positions,
             normals: &hair.tangents,
             uvs: &hair.model.uvs,
-            indices: &hair.model.triangles,
+            indices: hair_triangles,
             part: HAIR_PART,
             two_sided: true,
         });
@@ -192,15 +203,21 @@ pub fn render_posed(posed: &Posed, identity: &Identity, settings: FrameSettings)
     let holder = Scene::new(posed, identity);
     let scene = holder.items(posed);
     let camera = portrait_camera(posed.anchor, width, height);
-    // Lashes are too thin to cast visible shadows; at shadow-map resolution they would smear.
-    let casters: Vec<Triangles> = scene
-        .iter()
-        .filter(|t| !matches!(Part::from_id(t.part), Some(Part::LashesUpper | Part::LashesLower)))
-        .copied()
-        .collect();
     let key = look.light.lighting().lights[0].direction;
-    let shadow = shade::ShadowMap::new(&casters, key, posed.anchor + Vec3::new(0.0, -0.3, 0.0), SHADOW_MAP_SIZE, threads);
-    let shader = shade::FaceShader::new(model, posed, identity, &look, height).with_body(&holder.body).with_hair(&holder.hair).with_shadows(&shadow);
+    let light_centre = posed.anchor + Vec3::new(0.0, -0.3, 0.0);
+    // The light sees other hair than the camera does.
+    let hair_lit = holder.hair.seen_from(shade::ShadowMap::eye(key, light_centre));
+    // Lashes are too thin to cast visible shadows; at shadow-map resolution they would smear.
+    let casters: Vec<Triangles> = holder
+        .items_with_hair(posed, &hair_lit)
+        .into_iter()
+        .filter(|t| !matches!(Part::from_id(t.part), Some(Part::LashesUpper | Part::LashesLower)))
+        .collect();
+    let shadow = shade::ShadowMap::new(&casters, key, light_centre, SHADOW_MAP_SIZE, threads);
+    let shader = shade::FaceShader::new(model, posed, identity, &look, height)
+        .with_body(&holder.body)
+        .with_hair(&holder.hair, &holder.hair_seen)
+        .with_shadows(&shadow);
     let image = raster::render(&scene, &camera, &shader, &still_options(threads));
     Ok(if look.grayscale { image.to_grayscale() } else { image })
 }

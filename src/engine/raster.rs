@@ -419,6 +419,7 @@ impl Setup {
         assert!(camera.width <= 16_384 && camera.height <= 16_384, "camera image size must be at most 16384");
         let view = camera.view();
         let near = camera.near();
+        let projection = camera.pixel_projection();
         let (wf, hf) = (camera.width as f32, camera.height as f32);
         // A nested setup on this thread (none today) would find the slot empty and allocate.
         let storage = SETUP_STORAGE.try_with(|slot| slot.take()).unwrap_or_default();
@@ -455,7 +456,7 @@ impl Setup {
             if !shares_previous {
                 homogeneous.clear();
                 homogeneous
-                    .extend(tris.positions.iter().map(|&p| camera.view_to_homogeneous_pixel(view.transform_point3(p))));
+                    .extend(tris.positions.iter().map(|&p| projection.apply(view.transform_point3(p))));
                 codes.clear();
                 codes.extend(homogeneous.iter().map(|&h| outcode(h, near, wf, hf)));
                 // Snapped once per vertex for the triangles that need no clipping (only

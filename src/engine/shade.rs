@@ -20,11 +20,11 @@ use glam::{Vec2, Vec3};
 use super::asset::{FaceModel, Part};
 use super::body::Body;
 use super::identity::Identity;
-use super::hair::Hair;
+use super::hair::{FIBRES_PER_CARD, Hair};
 use super::{BODY_PART, HAIR_PART};
 use super::look::{Backdrop, Lighting, Look};
 use super::pose::Posed;
-use super::camera::Camera;
+use super::camera::{Camera, PixelProjection};
 use super::raster::{self, Fragment, RenderOptions, SampleCount, Shader, Triangles};
 
 /// Per-vertex region weights the shader reads.
@@ -47,6 +47,8 @@ fn regions(model: &FaceModel) -> &'static Regions {
 pub struct ShadowMap {
     camera: Camera,
     view: glam::Mat4,
+    projection: PixelProjection,
+    near: f32,
     distance: Vec<f32>,
 }
 
@@ -54,7 +56,7 @@ impl ShadowMap {
     /// Renders the depth of `scene` from the key light, aimed at `centre`.
     pub fn new(scene: &[Triangles], key_direction: Vec3, centre: Vec3, size: u32, threads: Option<usize>) -> ShadowMap {
         let camera = Camera {
-            eye: centre + key_direction * 60.0,
+            eye: Self::eye(key_direction, centre),
             target: centre,
             up: Vec3::Y,
             fov_y_degrees: 3.6,
@@ -63,13 +65,18 @@ impl ShadowMap {
         };
         let options = RenderOptions { samples_per_pixel: SampleCount::X1, threads, backface_culling: true, shade_per_surface: false };
         let distance = raster::nearest_distances(scene, &camera, &options);
-        ShadowMap { view: camera.view(), camera, distance }
+        ShadowMap { view: camera.view(), projection: camera.pixel_projection(), near: camera.near(), camera, distance }
+    }
+
+    /// Where the map is seen from: far out toward the key light from `centre`.
+    pub fn eye(key_direction: Vec3, centre: Vec3) -> Vec3 {
+        centre + key_direction * 60.0
     }
 
     /// Fraction of the key light reaching `position` (0 = in shadow), softened over a 4×4 texel footprint.
     fn light(&self, position: Vec3) -> f32 {
-        let h = self.camera.view_to_homogeneous_pixel(self.view.transform_point3(position));
-        if h.z < self.camera.near() {
+        let h = self.projection.apply(self.view.transform_point3(position));
+        if h.z < self.near {
             return 1.0;
         }
         let p = Vec3::new(h.x / h.z, h.y / h.z, h.z);
@@ -78,20 +85,42 @@ impl ShadowMap {
         let (fx, fy) = (p.x - 0.5, p.y - 0.5);
         let (cx, cy) = (fx.floor() as i32, fy.floor() as i32);
         let (tx, ty) = (fx - cx as f32, fy - cy as f32);
+        let weights = |t: f32| [1.0 - t, 1.0, 1.0, t];
+        let (wx, wy) = (weights(tx), weights(ty));
+        let columns: [usize; 4] = std::array::from_fn(|k| (cx + k as i32 - 1).clamp(0, w - 1) as usize);
         let bias = 0.035;
         let mut lit = 0.0;
-        for dy in -1..=2 {
-            let wy = match dy { -1 => 1.0 - ty, 2 => ty, _ => 1.0 };
-            for dx in -1..=2 {
-                let wx = match dx { -1 => 1.0 - tx, 2 => tx, _ => 1.0 };
-                let (x, y) = ((cx + dx).clamp(0, w - 1), (cy + dy).clamp(0, h - 1));
-                if p.z <= self.distance[(y * w + x) as usize] + bias {
-                    lit += wx * wy;
-                }
+        for (k, wy) in wy.into_iter().enumerate() {
+            let row = &self.distance[(cy + k as i32 - 1).clamp(0, h - 1) as usize * w as usize..];
+            for (&x, wx) in columns.iter().zip(wx) {
+                // Adding 0 leaves the sum as it was: the same value as skipping the texel.
+                lit += if p.z <= row[x] + bias { wx * wy } else { 0.0 };
             }
         }
         lit / 9.0
     }
+}
+
+/// The key light reaching each hair card vertex, looked up once per row of a card (the two
+/// vertices across the strand at one of its points share the value) and only for the rows of
+/// cards the camera sees (`seen`, see [`Hair::seen_from`]); 1 elsewhere. Hair has no normal
+/// to offset along: the lookup is nudged toward the light (`key`) instead.
+fn hair_key_light(hair: &Hair, seen: &[[u32; 3]], shadow: &ShadowMap, key: Vec3) -> Vec<f32> {
+    let mut row_seen = vec![false; hair.positions.len() / 2];
+    for &[a, b, c] in seen {
+        if a != b {
+            for v in [a, b, c] {
+                row_seen[v as usize / 2] = true;
+            }
+        }
+    }
+    let mut light = vec![1.0; hair.positions.len()];
+    for ((row, pair), seen) in light.chunks_exact_mut(2).zip(hair.positions.chunks_exact(2)).zip(row_seen) {
+        if seen {
+            row.fill(shadow.light((pair[0] + pair[1]) * 0.5 + key * 0.03));
+        }
+    }
+    light
 }
 
 /// Slowly varying painted features and region weights of one skin vertex, interpolated across
@@ -236,6 +265,8 @@ pub struct FaceShader<'a> {
     body_key_light: Vec<f32>,
     /// The hair cards, and the key light reaching each of their vertices.
     hair: Option<&'a Hair>,
+    /// The hair's triangles the camera sees (hidden ones degenerate).
+    hair_seen: &'a [[u32; 3]],
     hair_key_light: Vec<f32>,
     patterns: ActivePatterns,
     /// The union of the active patterns' boxes: no relief outside it.
@@ -267,7 +298,7 @@ impl<'a> FaceShader<'a> {
         let backdrop = (0..height).map(|y| look.backdrop.colour(y, height)).collect();
         let lighting = look.light.lighting();
         let (body, body_key_light, hair, hair_key_light) = (None, Vec::new(), None, Vec::new());
-        FaceShader { maps, key_light, body, body_key_light, hair, hair_key_light, patterns, relief_bounds, model, posed, identity, lighting, backdrop_kind: look.backdrop, backdrop }
+        FaceShader { maps, key_light, body, body_key_light, hair, hair_seen: &[], hair_key_light, patterns, relief_bounds, model, posed, identity, lighting, backdrop_kind: look.backdrop, backdrop }
     }
 
     /// Casts the key light's shadows from `shadow`, looked up once per vertex (offset along the
@@ -278,18 +309,15 @@ impl<'a> FaceShader<'a> {
             Some(body) => body.positions.iter().zip(&body.normals).map(|(&p, &n)| shadow.light(p + n * 0.02)).collect(),
             None => Vec::new(),
         };
-        // Hair has no normal to offset along: the lookup is nudged toward the light instead.
         let key = self.lighting.lights[0].direction;
-        let hair_key_light = match self.hair {
-            Some(hair) => hair.positions.iter().map(|&p| shadow.light(p + key * 0.03)).collect(),
-            None => Vec::new(),
-        };
+        let hair_key_light = self.hair.map_or_else(Vec::new, |hair| hair_key_light(hair, self.hair_seen, shadow, key));
         FaceShader { key_light, body_key_light, hair_key_light, ..self }
     }
 
-    /// Shades hair cards too (scene part [`HAIR_PART`]).
-    pub fn with_hair(self, hair: &'a Hair) -> FaceShader<'a> {
-        FaceShader { hair_key_light: vec![1.0; hair.positions.len()], hair: Some(hair), ..self }
+    /// Shades hair cards too (scene part [`HAIR_PART`]), of which the camera sees `seen`
+    /// ([`Hair::seen_from`]).
+    pub fn with_hair(self, hair: &'a Hair, seen: &'a [[u32; 3]]) -> FaceShader<'a> {
+        FaceShader { hair_key_light: vec![1.0; hair.positions.len()], hair: Some(hair), hair_seen: seen, ..self }
     }
 
     /// The key light reaching each vertex of the scene item `part`.
@@ -495,12 +523,12 @@ impl<'a> FaceShader<'a> {
         let model = &hair.model;
         let strand = (f.triangle / model.triangles_per_strand) as usize;
         let tone = model.strand_tone.get(strand).copied().unwrap_or(1.0);
-        let grey = model.strand_grey.get(strand).copied().unwrap_or(0.0);
+        let grey = model.fibre_grey(strand, f.uv.x);
         // Greying: white strands among pigmented ones, which themselves lose some colour.
         let faded = self.identity.hair.lerp(Vec3::splat(self.identity.hair.dot(Vec3::splat(1.0 / 3.0))), 0.4 * self.identity.hair_grey);
         let pigment = faded.lerp(Vec3::new(0.4, 0.4, 0.38), grey);
-        let fibres = 0.72 + 0.28 * value_noise(Vec3::new(f.uv.x * 7.0, f.uv.y * 3.0, strand as f32 * 1.618));
-        let rooted = 0.45 + 0.55 * smoothstep(0.0, 0.35, f.uv.y);
+        let fibres = 0.72 + 0.28 * value_noise(Vec3::new(f.uv.x * FIBRES_PER_CARD, f.uv.y * 3.0, strand as f32 * 1.618));
+        let rooted = 0.65 + 0.35 * smoothstep(0.0, 0.35, f.uv.y);
         let albedo = pigment * tone * fibres * rooted;
         let tangent = f.normal;
         let view = f.view_dir;
