@@ -31,9 +31,10 @@
     if (document.visibilityState === 'visible') visibleSince = performance.now();
     else if (visibleSince !== null) { visibleMs += performance.now() - visibleSince; visibleSince = null; }
   });
-  function timeOnTask() {
-    const now = visibleSince === null ? 0 : performance.now() - visibleSince;
-    return Math.round((visibleMs + now) * 10) / 10;
+  // `now` is the same clock reading as the response time's, so time in view never exceeds it.
+  function timeOnTask(now) {
+    const since = visibleSince === null ? 0 : now - visibleSince;
+    return Math.round((visibleMs + since) * 10) / 10;
   }
   function failed() { form.elements.load_failed.value = '1'; painted(); }
   if (stimulus.tagName === 'VIDEO') {
@@ -175,13 +176,14 @@
     new FormData(form).forEach(function (value, name) {
       if (['idempotency_key', 'rt_ms', 'video_ended', 'load_failed'].indexOf(name) < 0) fields.push([name, String(value)]);
     });
+    const now = performance.now();
     const body = {
       idempotency_key: form.elements.idempotency_key.value,
       fields: fields,
-      rt_ms: shownAt === null ? null : Math.round((performance.now() - shownAt) * 10) / 10,
+      rt_ms: shownAt === null ? null : Math.round((now - shownAt) * 10) / 10,
       video_ended: stimulus.tagName === 'VIDEO' ? ended : null,
       load_failed: form.elements.load_failed.value === '1',
-      viewing: { replays: viewing.replays, frame_steps: viewing.frame_steps, speeds: viewing.speeds.slice(), time_on_task_ms: timeOnTask() },
+      viewing: { replays: viewing.replays, frame_steps: viewing.frame_steps, speeds: viewing.speeds.slice(), time_on_task_ms: timeOnTask(now) },
     };
     next.disabled = true;
     status.textContent = 'Saving your answer…';
