@@ -78,8 +78,6 @@ impl Default for FrameSettings {
 /// The portrait camera: about a metre in front of the face, level with the eyes, framing the
 /// head, the neck and the top of the shoulders. `anchor` is the midpoint of the eyes at rest.
 pub fn portrait_camera(anchor: Vec3, width: u32, height: u32) -> Camera {
-    // Scene::new works out what the eye sees from the camera with any size: keep the eye
-    // independent of the size.
     let target = anchor + Vec3::new(0.0, -0.22, 0.0);
     Camera { eye: target + Vec3::new(0.0, 0.25, 11.0), target, up: Vec3::Y, fov_y_degrees: 17.0, width, height }
 }
@@ -107,8 +105,8 @@ pub fn render_frame(expression: &Expression, identity: &Identity, settings: Fram
     if settings.look.backdrop != Backdrop::Transparent {
         return Ok(Frame::Rgb(image));
     }
-    let scene = Scene::new(&posed, identity);
     let camera = portrait_camera(posed.anchor, settings.width, settings.height);
+    let scene = Scene::new(&posed, identity, camera.eye);
     let visibility = raster::visibility(&scene.items(&posed), &camera, &still_options(settings.threads));
     let n = visibility.samples_per_pixel;
     let alpha: Vec<u8> = visibility
@@ -135,15 +133,16 @@ struct Scene {
     model: &'static FaceModel,
     body: body::Body,
     hair: hair::Hair,
-    /// The hair's triangles as the portrait camera sees them (hidden ones degenerate).
+    /// The hair's triangles as the camera sees them (hidden ones degenerate).
     hair_seen: Vec<[u32; 3]>,
 }
 
 impl Scene {
-    fn new(posed: &Posed, identity: &Identity) -> Scene {
+    /// The scene of `posed` for a camera at `eye`.
+    fn new(posed: &Posed, identity: &Identity, eye: Vec3) -> Scene {
         let model = FaceModel::embedded();
         let hair = hair::HairModel::cached(model, identity, &posed.neutral).posed(model, posed);
-        let hair_seen = hair.seen_from(portrait_camera(posed.anchor, 1, 1).eye);
+        let hair_seen = hair.seen_from(eye);
         Scene { model, body: body::Body::new(model, posed, identity), hair, hair_seen }
     }
 
@@ -200,9 +199,9 @@ pub fn render_posed(posed: &Posed, identity: &Identity, settings: FrameSettings)
         return Err(EngineError::Size(width, height));
     }
     let model = FaceModel::embedded();
-    let holder = Scene::new(posed, identity);
-    let scene = holder.items(posed);
     let camera = portrait_camera(posed.anchor, width, height);
+    let holder = Scene::new(posed, identity, camera.eye);
+    let scene = holder.items(posed);
     let key = look.light.lighting().lights[0].direction;
     let light_centre = posed.anchor + Vec3::new(0.0, -0.3, 0.0);
     // The light sees other hair than the camera does.
