@@ -30,15 +30,15 @@ Writes `results/blendshape_reach.csv` and `results/blendshape_reach.md`; renders
 import argparse
 import csv
 import os
-import subprocess
 import sys
 import zipfile
 
 import numpy as np
 
+from calibrate import BLENDSHAPES, EVALUATION_PEOPLE, detect, landmarker, render_all
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 RESULTS = os.path.join(HERE, "results")
-PEOPLE = "wm1 wm2 bm1 bm2 wf1 wf2 bf1 bf2".split()
 
 # The 146 landmarks the blendshape network reads, in its input order (MediaPipe's
 # face_blendshapes graph); the last ten are the irises, which this search leaves alone.
@@ -55,26 +55,19 @@ SUBSET = [
 MOVABLE = SUBSET[:-10]
 
 
-def side(k):
-    return [k + "Left", k + "Right"]
-
-
-# AU -> (blendshapes, floor over neutral), as the floor check (`au_floors.py`) states them.
-FLOORS = {
-    "6": (side("cheekSquint"), 0.3), "9": (side("noseSneer"), 0.3), "14": (side("mouthDimple"), 0.2),
-    "5": (side("eyeWide"), 0.4), "2": (side("browOuterUp"), 0.5), "24": (side("mouthPress"), 0.2),
-    "17": (["mouthShrugLower"], 0.3), "28": (["mouthRollLower", "mouthRollUpper"], 0.3),
-}
+# AU -> its floor over neutral, as the floor check (`au_floors.py`) states them; the blendshapes
+# are the calibration table's (`calibrate.BLENDSHAPES`).
+FLOORS = {"6": 0.3, "9": 0.3, "14": 0.2, "5": 0.4, "2": 0.5, "24": 0.2, "17": 0.3, "28": 0.3}
 
 
 class Network:
-    """FaceLandmarker (landmarks + blendshapes from an image) and its blendshape network alone."""
+    """FaceLandmarker (landmarks + blendshapes from an image, as `calibrate.py` detects them) and
+    its blendshape network alone."""
 
     def __init__(self, validators):
-        sys.path.insert(0, validators)
-        import raters  # the validators' own MediaPipe wrapper (model path, options)
         from ai_edge_litert.interpreter import Interpreter
-        self.tasks = raters.MpTasks()
+        self.tasks = landmarker(validators)
+        import raters  # on the path once `calibrate.landmarker` has run
         with zipfile.ZipFile(raters.face_landmarker_task_path()) as z:
             model = z.read("face_blendshapes.tflite")
         self.net = Interpreter(model_content=model)
@@ -84,16 +77,10 @@ class Network:
         self.names = None
 
     def detect(self, path):
-        from PIL import Image
-        rgb = np.ascontiguousarray(np.asarray(Image.open(path).convert("RGB")))
-        h, w = rgb.shape[:2]
-        mp = self.tasks.mp
-        r = self.tasks.lm.detect(mp.Image(image_format=mp.ImageFormat.SRGB, data=rgb))
-        if not r.face_landmarks:
-            return None, None
-        self.names = [c.category_name for c in r.face_blendshapes[0]]
-        pts = np.array([(p.x * w, p.y * h) for p in r.face_landmarks[0]], dtype=np.float32)
-        return pts, {c.category_name: float(c.score) for c in r.face_blendshapes[0]}
+        pts, bs = detect(self.tasks, path)
+        if bs is not None:
+            self.names = list(bs)  # the network's output order
+        return pts, bs
 
     def scores(self, pts):
         self.net.set_tensor(self.inp, pts[SUBSET][None].astype(np.float32))
@@ -124,24 +111,16 @@ def steepest_path(net, pts, keys, target, step, max_steps):
     return q, value(q), steps
 
 
-def render(facslab, expr, person, path):
-    if not os.path.exists(path):
-        subprocess.run([facslab, "render", expr, "--identity", person, "-o", path, "--size", "485x480",
-                        "--threads", "1"], check=True, capture_output=True)
-
-
 def reach_rows(net, a):
     rows = []
     for person in a.people:
-        n0 = os.path.join(a.work, f"{person}__0.png")
-        render(a.facslab, "0", person, n0)
-        pts0, bs0 = net.detect(n0)
+        path_of = lambda expr: os.path.join(a.work, f"{person}__{expr}.png")
+        render_all(a.facslab, [(e, person, path_of(e)) for e in ["0", *a.aus]], a.workers)
+        pts0, bs0 = net.detect(path_of("0"))
         iod = float(np.linalg.norm(pts0[468] - pts0[473]))  # iris centres
         for au in a.aus:
-            keys, floor = FLOORS[au]
-            path = os.path.join(a.work, f"{person}__{au}.png")
-            render(a.facslab, au, person, path)
-            pts, bs = net.detect(path)
+            keys, floor = BLENDSHAPES[int(au)], FLOORS[au]
+            pts, bs = net.detect(path_of(au))
             v0, vE = np.mean([bs0[k] for k in keys]), np.mean([bs[k] for k in keys])
             q, reached, steps = steepest_path(net, pts, keys, v0 + floor, a.step * iod, a.max_steps)
             extra = np.linalg.norm(q - pts, axis=1) / iod
@@ -169,7 +148,8 @@ def photo_rows(net):
         Image.open(path).convert("RGB").save(tmp)
         _, bs = net.detect(tmp)
         if bs:
-            rows.append((name, {k: bs[k] for keys, _ in FLOORS.values() for k in keys} | {k: bs[k] for k in side("mouthSmile") + side("eyeSquint")}))
+            keys = [k for au in FLOORS for k in BLENDSHAPES[int(au)]] + BLENDSHAPES[12] + BLENDSHAPES[7]
+            rows.append((name, {k: bs[k] for k in keys}))
     return rows
 
 
@@ -204,10 +184,11 @@ def main():
     ap.add_argument("--validators", default=os.path.join(HERE, "..", "..", "..", "shared", "tools", "validators"))
     ap.add_argument("--work", default="/tmp/facslab-reach")
     ap.add_argument("--results", default=RESULTS)
-    ap.add_argument("--people", type=lambda s: s.split(","), default=PEOPLE)
+    ap.add_argument("--people", type=lambda s: s.split(","), default=EVALUATION_PEOPLE)
     ap.add_argument("--aus", type=lambda s: s.split(","), default=["6", "9", "14", "5", "2"])
     ap.add_argument("--step", type=float, default=0.01, help="step along the gradient, in IOD")
     ap.add_argument("--max-steps", type=int, default=300)
+    ap.add_argument("--workers", type=int, default=2)
     a = ap.parse_args()
     unknown = [au for au in a.aus if au not in FLOORS]
     if unknown:

@@ -2,7 +2,7 @@
 """AU calibration of the face engine, measured with MediaPipe FaceLandmarker.
 
 Two measurements: floors on every person `facslab identities` lists, the table on the eight
-evaluation people (the first eight it lists; `--people` picks others):
+evaluation people (`EVALUATION_PEOPLE`; `--people` picks others):
 
   floors  renders PERSON__EXPR.png for the expressions the floor check lists (every AU at E that
           has a MediaPipe blendshape, the A..D ramps of AU4/12/26, the one-sided L/R AUs), runs
@@ -62,6 +62,8 @@ BLENDSHAPES = {
     62: side("eyeLookIn")[:1] + side("eyeLookOut")[1:], 63: side("eyeLookUp"), 64: side("eyeLookDown"),
 }
 EYE_R, EYE_L = [33, 133, 159, 145], [362, 263, 386, 374]
+# The eight evaluation people (HapFACS's evaluation identities, `facslab identities` lists them first).
+EVALUATION_PEOPLE = "wm1 wm2 bm1 bm2 wf1 wf2 bf1 bf2".split()
 
 
 def identities(facslab):
@@ -122,7 +124,7 @@ def detect(lm, path):
 def table(a):
     work = os.path.join(a.work, "table")
     os.makedirs(work, exist_ok=True)
-    people = a.people or identities(a.facslab)[:8]
+    people = a.people or EVALUATION_PEOPLE
     codes = catalog_codes(os.path.dirname(os.path.dirname(HERE)))
     exprs = ["0"] + [f"{c}{lv}" for c in codes for lv in LEVELS]
     render_all(a.facslab, [(e, p, os.path.join(work, f"{p}__{e}.png")) for p in people for e in exprs], a.workers)

@@ -14,6 +14,8 @@ import re
 
 from PIL import Image, ImageDraw
 
+from calibrate import EVALUATION_PEOPLE
+
 CROP = (112, 60, 373, 400)  # the face in a 485x480 render (x0, y0, x1, y1)
 TILE_W = 116
 COLUMNS = ["0", "A", "B", "C", "D", "E"]
@@ -24,7 +26,7 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--renders", default="/tmp/facslab-calibrate/table")
     ap.add_argument("--out", default="docs/au-sheets")
-    ap.add_argument("--people", default="wm1,wm2,bm1,bm2,wf1,wf2,bf1,bf2")
+    ap.add_argument("--people", default=",".join(EVALUATION_PEOPLE))
     a = ap.parse_args()
     people = a.people.split(",")
     names = os.listdir(a.renders)
