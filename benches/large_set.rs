@@ -1,8 +1,11 @@
 //! Large labelled sets: a 10,000-still set (250 two-AU combinations × 5 intensities × the eight
 //! evaluation people, 485×480) built once on all cores, then as 4 shards one after the other
 //! (each on all cores) and merged. Prints stills per second per core for both, and the merge
-//! time. Run with `cargo bench --bench large_set` on an otherwise idle machine;
-//! `FACSLAB_LARGE_SET_STILLS=N` (a multiple of 40) sets a smaller or larger set.
+//! time. Each build is measured twice: by the wall clock (stills per second per core: meaningful
+//! on an otherwise idle machine) and by the CPU time the process spent (stills per CPU second:
+//! the same figure whatever else runs, since it counts only this process's cores). Run with
+//! `cargo bench --bench large_set`; `FACSLAB_LARGE_SET_STILLS=N` (a multiple of 40) sets a
+//! smaller or larger set.
 
 use std::path::Path;
 use std::time::Instant;
@@ -27,12 +30,38 @@ fn spec_text(stills: usize) -> String {
     )
 }
 
-fn timed<T>(what: &str, f: impl FnOnce() -> T) -> (T, f64) {
-    let started = Instant::now();
+/// Wall and CPU seconds of one step.
+#[derive(Clone, Copy, Default)]
+struct Spent {
+    wall: f64,
+    cpu: f64,
+}
+
+impl std::ops::AddAssign for Spent {
+    fn add_assign(&mut self, other: Spent) {
+        self.wall += other.wall;
+        self.cpu += other.cpu;
+    }
+}
+
+/// User plus system CPU seconds of this process so far (all its threads).
+fn cpu_seconds() -> f64 {
+    let mut usage = std::mem::MaybeUninit::<libc::rusage>::zeroed();
+    // SAFETY: getrusage writes a whole `rusage` into the pointer it is given and reads nothing.
+    let usage = unsafe {
+        assert_eq!(libc::getrusage(libc::RUSAGE_SELF, usage.as_mut_ptr()), 0, "getrusage");
+        usage.assume_init()
+    };
+    let seconds = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 / 1e6;
+    seconds(usage.ru_utime) + seconds(usage.ru_stime)
+}
+
+fn timed<T>(what: &str, f: impl FnOnce() -> T) -> (T, Spent) {
+    let (started, cpu) = (Instant::now(), cpu_seconds());
     let value = f();
-    let seconds = started.elapsed().as_secs_f64();
-    eprintln!("{what}: {seconds:.1} s");
-    (value, seconds)
+    let spent = Spent { wall: started.elapsed().as_secs_f64(), cpu: cpu_seconds() - cpu };
+    eprintln!("{what}: {:.1} s wall, {:.1} s CPU", spent.wall, spent.cpu);
+    (value, spent)
 }
 
 fn main() {
@@ -51,7 +80,7 @@ fn ten_thousand_stills_one_build_vs_four_shards() {
     let options = BuildOptions { jobs: None, progress: false, dither: Dithering::Key(key) };
     let root = dir.path();
     let (_, whole) = timed("one build", || stimuli::build(&spec, &root.join("whole"), &options).expect("builds"));
-    let mut sharded = 0.0;
+    let mut sharded = Spent::default();
     let parts: Vec<_> = (1..=4).map(|k| root.join(format!("part{k}"))).collect();
     for (k, part) in (1..=4).zip(&parts) {
         let shard = Shard::new(k, 4).expect("a valid shard");
@@ -59,11 +88,14 @@ fn ten_thousand_stills_one_build_vs_four_shards() {
     }
     let (_, merge) = timed("merge", || stimuli::merge(&parts, &root.join("merged")).expect("merges"));
     let same = std::fs::read(root.join("whole/manifest.csv")).ok() == std::fs::read(root.join("merged/manifest.csv")).ok();
-    let rate = |seconds: f64| stills as f64 / seconds / cores as f64;
+    let line = |what: &str, s: Spent| {
+        let (per_core, per_cpu) = (stills as f64 / s.wall / cores as f64, stills as f64 / s.cpu);
+        println!("{what:<18} {:7.1} s wall {per_core:6.2} stills/s/core  {:7.1} s CPU {per_cpu:6.2} stills/CPU-s", s.wall, s.cpu);
+    };
     println!("{stills} stills at 485x480 on {cores} cores");
-    println!("one build:         {whole:7.1} s  {:6.2} stills/s/core", rate(whole));
-    println!("4 shards (serial): {sharded:7.1} s  {:6.2} stills/s/core", rate(sharded));
-    println!("merge:             {merge:7.1} s  (manifest equal to the one build: {same})");
+    line("one build:", whole);
+    line("4 shards (serial):", sharded);
+    println!("merge:             {:7.1} s  (manifest equal to the one build: {same})", merge.wall);
     assert!(same && dir_size(&root.join("merged")) == dir_size(&root.join("whole")));
 }
 
