@@ -29,6 +29,9 @@ use super::pose::Posed;
 /// Where the camera looks from (the cards turn their face to it).
 const VIEW_FROM: Vec3 = Vec3::new(0.0, 7.4, 11.0);
 
+/// Height under the ear lobes (base mesh): below it hanging hair meets the jaw, neck and shoulders.
+const BELOW_EARS: f32 = 6.8;
+
 /// Centre of the spherical height map of the head.
 const HEAD_CENTRE: Vec3 = Vec3::new(0.0, 7.45, 0.35);
 const MAP_POLAR: usize = 48;
@@ -88,7 +91,29 @@ struct StyleShape {
     gather: Option<Vec3>,
 }
 
+/// A texture's curl: the radius and the period (length of strand per turn), decimetres.
+fn curl(texture: HairTexture) -> (f32, f32) {
+    match texture {
+        HairTexture::Straight => (0.0, 1.0),
+        HairTexture::Wavy => (0.035, 0.45),
+        HairTexture::Curly => (0.045, 0.16),
+        HairTexture::Coiled => (0.03, 0.06),
+    }
+}
+
+/// Points per turn of a curl that a strand needs to be drawn as a curve, not a zigzag; a
+/// strand has at most twice its style's segments to get them.
+const POINTS_PER_TURN: f32 = 5.0;
+
 fn style_shape(style: HairStyle, texture: HairTexture) -> StyleShape {
+    let shape = style_shape_uncurled(style, texture);
+    let longest = shape.length_top.max(shape.length_back) * 1.15;
+    let (radius, period) = curl(texture);
+    let wanted = if radius > 0.0 { (longest / period * POINTS_PER_TURN).ceil() as usize } else { 0 };
+    StyleShape { segments: wanted.clamp(shape.segments, 2 * shape.segments), ..shape }
+}
+
+fn style_shape_uncurled(style: HairStyle, texture: HairTexture) -> StyleShape {
     let coiled = texture == HairTexture::Coiled;
     let base = |length_top, length_back, density, segments, width, lift, gravity| StyleShape {
         length_top,
@@ -103,9 +128,9 @@ fn style_shape(style: HairStyle, texture: HairTexture) -> StyleShape {
     };
     match style {
         HairStyle::Cropped => base(0.05, 0.04, 600.0, 2, 0.015, 0.05, 0.0),
-        HairStyle::Short if coiled => base(0.12, 0.1, 1200.0, 5, 0.02, 0.6, 0.0),
+        HairStyle::Short if coiled => base(0.12, 0.1, 1200.0, 8, 0.014, 0.6, 0.0),
         HairStyle::Short => base(0.32, 0.16, 450.0, 7, 0.02, 0.06, 1.0),
-        HairStyle::Medium if coiled => base(0.38, 0.34, 1000.0, 8, 0.024, 0.7, 0.3),
+        HairStyle::Medium if coiled => base(0.38, 0.34, 1000.0, 14, 0.016, 0.7, 0.3),
         HairStyle::Medium => base(1.0, 0.9, 380.0, 12, 0.025, 0.05, 2.5),
         HairStyle::Shoulder => base(1.75, 1.6, 420.0, 16, 0.025, 0.05, 3.0),
         HairStyle::Long => base(2.7, 2.5, 420.0, 20, 0.025, 0.05, 3.0),
@@ -186,6 +211,17 @@ impl HeadMap {
         if r <= target { p } else { HEAD_CENTRE + d * ((r + (target - r) * amount) / r.max(1e-6)) }
     }
 
+    /// The direction across a card at `p` along `tangent`: facing `to_eye`, turned into the
+    /// scalp's tangent plane as the card comes within a millimetre of the skin (a card seen
+    /// edge-on there lies flat along the scalp).
+    fn card_side(&self, p: Vec3, tangent: Vec3, to_eye: Vec3) -> Vec3 {
+        let facing = tangent.cross(to_eye).normalize_or(Vec3::X);
+        let radial = (p - HEAD_CENTRE).normalize_or(Vec3::Y);
+        let near = 1.0 - smooth(0.01, 0.08, (p - HEAD_CENTRE).length() - self.surface(p));
+        let flat = facing - radial * facing.dot(radial) * near;
+        flat.try_normalize().unwrap_or_else(|| tangent.cross(radial).normalize_or(Vec3::X))
+    }
+
     /// `p` moved out along the ray from the centre until it is `clearance` above the skin.
     fn keep_outside(&self, p: Vec3, clearance: f32) -> Vec3 {
         let d = p - HEAD_CENTRE;
@@ -196,9 +232,13 @@ impl HeadMap {
 }
 
 /// Keeps hanging hair beside the face (not over it) and above the shoulders.
-fn keep_clear_of_face_and_shoulders(mut p: Vec3) -> Vec3 {
-    // In front of the ears and below the hairline, hair stays beside the cheeks and jaw.
-    if p.z > 0.15 && p.y < 7.75 {
+///
+/// Only hair that has fallen below its root (`root_y`) is kept off the face: hair still
+/// lying on the temple is where it grows, and pushing it sideways there would stretch the
+/// strand into a streak.
+fn keep_clear_of_face_and_shoulders(mut p: Vec3, root_y: f32) -> Vec3 {
+    // In front of the ears and below the hairline, hanging hair stays beside the cheeks and jaw.
+    if p.z > 0.15 && p.y < 7.75 && p.y < root_y - 0.08 {
         let half_width = if p.y > 6.9 { 0.84 } else { 0.62 + 0.22 * ((p.y - 6.1) / 0.8).clamp(0.0, 1.0) };
         if p.x.abs() < half_width {
             p.x = half_width * if p.x < 0.0 { -1.0 } else { 1.0 };
@@ -304,8 +344,8 @@ impl HairModel {
             skull_centre: HEAD_CENTRE + offset,
         };
         for (n, root) in roots.iter().enumerate() {
-            let points = grow(root, n as u32, identity, &shape, &head);
-            hair.add_card(&points, root.vertex, shape.width * (0.7 + 0.6 * hash01(n as u32, 7, 1)));
+            let Some(points) = grow(root, n as u32, identity, &shape, &head) else { continue };
+            hair.add_card(&points, root.vertex, shape.width * (0.7 + 0.6 * hash01(n as u32, 7, 1)), Some(&head));
             hair.strand_tone.push(0.8 + 0.4 * hash01(n as u32, 8, 2));
             hair.strand_grey.push(greying(identity.hair_grey, n as u32));
         }
@@ -318,14 +358,22 @@ impl HairModel {
         hair
     }
 
-    /// Appends one strand's card: two vertices per point, tapering to the tip.
-    fn add_card(&mut self, points: &[Vec3], root_vertex: u32, width: f32) {
+    /// Appends one strand's card: two vertices per point, tapering to the tip. A card turns its
+    /// face to the camera, except that near the `head` it lies along the scalp (never across
+    /// it, into the head).
+    fn add_card(&mut self, points: &[Vec3], root_vertex: u32, width: f32, head: Option<&HeadMap>) {
         let base = self.positions.len() as u32;
         let last = points.len() - 1;
+        let mut previous = Vec3::NEG_Y;
         for (k, &p) in points.iter().enumerate() {
-            let tangent = if k < last { points[k + 1] - p } else { p - points[k - 1] }.normalize_or(Vec3::NEG_Y);
+            // Along the strand: forward, or back at the tip, or as before where the strand ended
+            // early (its collapsed points).
+            let forward = if k < last { points[k + 1] - p } else { Vec3::ZERO };
+            let back = if k > 0 { p - points[k - 1] } else { Vec3::ZERO };
+            let tangent = forward.try_normalize().or(back.try_normalize()).unwrap_or(previous);
+            previous = tangent;
             let to_eye = (VIEW_FROM - p).normalize();
-            let side = tangent.cross(to_eye).normalize_or(Vec3::X);
+            let side = head.map_or_else(|| tangent.cross(to_eye).normalize_or(Vec3::X), |head| head.card_side(p, tangent, to_eye));
             let t = k as f32 / last as f32;
             let half = width * (1.0 - 0.5 * t * t);
             for (s, u) in [(-1.0, 0.0), (1.0, 1.0)] {
@@ -360,7 +408,7 @@ impl HairModel {
                     ball + (u * a.cos() + v * a.sin()) * r
                 })
                 .collect();
-            self.add_card(&points, root_vertex, shape.width * 1.2);
+            self.add_card(&points, root_vertex, shape.width * 1.2, None);
             self.strand_tone.push(0.8 + 0.4 * hash01(n, 15, 9));
             self.strand_grey.push(greying(grey, n));
         }
@@ -536,7 +584,9 @@ fn comb_direction(root: &Root, parting: Parting, gather: Option<Vec3>) -> Vec3 {
 }
 
 /// The points of one strand, root first.
-fn grow(root: &Root, n: u32, identity: &Identity, shape: &StyleShape, head: &HeadMap) -> Vec<Vec3> {
+/// A strand's points from its root, or `None` for a root from which hair cannot grow (it lies
+/// under an overhang, the ear, and its first step would jump out over it).
+fn grow(root: &Root, n: u32, identity: &Identity, shape: &StyleShape, head: &HeadMap) -> Option<Vec<Vec3>> {
     let top = smooth(7.9, 8.4, root.rest.y);
     let length = (shape.length_back + (shape.length_top - shape.length_back) * top) * (0.8 + 0.35 * hash01(n, 20, 0));
     let step = length / shape.segments as f32;
@@ -546,12 +596,7 @@ fn grow(root: &Root, n: u32, identity: &Identity, shape: &StyleShape, head: &Hea
     // Each strand sits at its own depth in the hair's volume.
     let layer = 0.008 + 0.05 * hash01(n, 21, 0) * (length / (length + 0.3));
     let phase = std::f32::consts::TAU * hash01(n, 22, 0);
-    let (curl_radius, curl_period) = match texture {
-        HairTexture::Straight => (0.0, 1.0),
-        HairTexture::Wavy => (0.035, 0.45),
-        HairTexture::Curly => (0.045, 0.16),
-        HairTexture::Coiled => (0.03, 0.06),
-    };
+    let (curl_radius, curl_period) = curl(texture);
     let mut points = vec![root.position];
     let mut centre = root.position;
     for k in 1..=shape.segments {
@@ -571,7 +616,7 @@ fn grow(root: &Root, n: u32, identity: &Identity, shape: &StyleShape, head: &Hea
         if shape.hug > 0.0 && next.y > 7.1 {
             next = head.draw_towards(next, clearance, shape.hug * smooth(7.1, 7.4, next.y));
         }
-        next = keep_clear_of_face_and_shoulders(next);
+        next = keep_clear_of_face_and_shoulders(next, root.position.y);
         direction = (next - centre).normalize_or(direction);
         centre = next;
         // Curl: an offset turning around the strand's direction.
@@ -580,9 +625,22 @@ fn grow(root: &Root, n: u32, identity: &Identity, shape: &StyleShape, head: &Hea
         let angle = phase + std::f32::consts::TAU * travelled / curl_period;
         let grow_in = (travelled / 0.1).min(1.0);
         let offset = (u * angle.cos() + v * angle.sin()) * curl_radius * grow_in;
-        points.push(head.keep_outside(centre + offset, 0.004));
+        let point = head.keep_outside(centre + offset, 0.004);
+        // A strand that hangs below the ears and that the jaw, neck or shoulders would make
+        // jump ends where it is (its remaining points collapse there), rather than being drawn
+        // as a stretched streak across them.
+        let last = points[points.len() - 1];
+        let jumps = (point - last).length() > 2.5 * step + 2.0 * curl_radius;
+        if jumps && k == 1 {
+            return None;
+        }
+        if jumps && point.y < BELOW_EARS {
+            points.resize(shape.segments + 1, last);
+            break;
+        }
+        points.push(point);
     }
-    points
+    Some(points)
 }
 
 #[cfg(test)]
