@@ -106,17 +106,20 @@ impl Body {
     pub fn new(model: &FaceModel, posed: &Posed, identity: &Identity) -> Body {
         let t = template(model);
         let mut positions: Vec<Vec3> = t.loop_vertices.iter().map(|&v| posed.positions[v as usize]).collect();
-        // Narrower shoulders for women; the neck rings keep the neck's own size.
+        // Narrower shoulders for women; the rings under the neck take the neck's own size
+        // (a thick neck would otherwise step in below the cut) and pass into the shoulders.
         let shoulders = 0.88 + 0.12 * identity.sex;
         let n = t.loop_vertices.len();
         // The rings follow the person's neck: the shift of the loop's centre from the base mesh.
         let centre = |p: &[Vec3]| t.loop_vertices.iter().map(|&v| p[v as usize]).sum::<Vec3>() / n as f32;
         let shift = centre(&posed.neutral) - centre(&model.rest);
         let shift = Vec3::new(0.0, shift.y, shift.z);
+        let neck = neck_size(&t.loop_vertices, &posed.neutral) / neck_size(&t.loop_vertices, &model.rest);
         positions.extend(t.rings.iter().enumerate().map(|(i, &p)| {
             let widen = ((i / n) as f32 / 4.0).min(1.0);
-            let scale = 1.0 + (shoulders - 1.0) * widen;
-            Vec3::new(p.x * scale, p.y, p.z) + shift
+            let across = neck.x + (shoulders - neck.x) * widen;
+            let deep = neck.y + (1.0 - neck.y) * widen;
+            Vec3::new(p.x * across, p.y, NECK_AXIS_Z + (p.z - NECK_AXIS_Z) * deep) + shift
         }));
         let normals = vertex_normals(&positions, &t.triangles);
         // The top ring takes the head's own normals, so the shading is continuous across the cut.
@@ -126,6 +129,16 @@ impl Body {
         }
         Body { shift, positions, normals, triangles: t.triangles.clone() }
     }
+}
+
+/// The neck cut's width (x) and depth (y) among `positions`.
+fn neck_size(loop_vertices: &[u32], positions: &[Vec3]) -> glam::Vec2 {
+    let (mut low, mut high) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
+    for &v in loop_vertices {
+        low = low.min(positions[v as usize]);
+        high = high.max(positions[v as usize]);
+    }
+    glam::Vec2::new(high.x - low.x, high.z - low.z)
 }
 
 /// Area-weighted vertex normals.
