@@ -19,7 +19,7 @@ use glam::{Vec2, Vec3};
 
 use super::asset::{FaceModel, Part};
 use super::body::Body;
-use super::identity::Identity;
+use super::identity::{HairTexture, Identity};
 use super::hair::{FIBRES_PER_CARD, Hair};
 use super::{BODY_PART, HAIR_PART};
 use super::look::{Backdrop, Lighting, Look};
@@ -100,6 +100,10 @@ impl ShadowMap {
         lit / 9.0
     }
 }
+
+/// How much a triangle's corners may differ in key light and still be interpolated (a shadow's
+/// edge crosses it beyond that).
+const SHADOW_EDGE: f32 = 0.02;
 
 /// The key light reaching each hair card vertex, looked up once per row of a card (the two
 /// vertices across the strand at one of its points share the value) and only for the rows of
@@ -268,6 +272,8 @@ pub struct FaceShader<'a> {
     /// The hair's triangles the camera sees (hidden ones degenerate).
     hair_seen: &'a [[u32; 3]],
     hair_key_light: Vec<f32>,
+    /// The key light's shadow map, looked up per pixel where a shadow's edge crosses a triangle.
+    shadow: Option<&'a ShadowMap>,
     patterns: ActivePatterns,
     /// The union of the active patterns' boxes: no relief outside it.
     relief_bounds: [f32; 4],
@@ -298,12 +304,14 @@ impl<'a> FaceShader<'a> {
         let backdrop = (0..height).map(|y| look.backdrop.colour(y, height)).collect();
         let lighting = look.light.lighting();
         let (body, body_key_light, hair, hair_key_light) = (None, Vec::new(), None, Vec::new());
-        FaceShader { maps, key_light, body, body_key_light, hair, hair_seen: &[], hair_key_light, patterns, relief_bounds, model, posed, identity, lighting, backdrop_kind: look.backdrop, backdrop }
+        FaceShader { maps, key_light, body, body_key_light, hair, hair_seen: &[], hair_key_light, shadow: None, patterns, relief_bounds, model, posed, identity, lighting, backdrop_kind: look.backdrop, backdrop }
     }
 
     /// Casts the key light's shadows from `shadow`, looked up once per vertex (offset along the
-    /// normal so that surfaces do not shadow themselves) and interpolated across triangles.
-    pub fn with_shadows(self, shadow: &ShadowMap) -> FaceShader<'a> {
+    /// normal so that surfaces do not shadow themselves) and interpolated across triangles whose
+    /// corners agree; on skin and body triangles a shadow's edge crosses (corners that differ),
+    /// looked up per pixel, so the edge follows the shadow, not the mesh.
+    pub fn with_shadows(self, shadow: &'a ShadowMap) -> FaceShader<'a> {
         let key_light = self.posed.positions.iter().zip(&self.posed.normals).map(|(&p, &n)| shadow.light(p + n * 0.02)).collect();
         let body_key_light = match self.body {
             Some(body) => body.positions.iter().zip(&body.normals).map(|(&p, &n)| shadow.light(p + n * 0.02)).collect(),
@@ -311,7 +319,17 @@ impl<'a> FaceShader<'a> {
         };
         let key = self.lighting.lights[0].direction;
         let hair_key_light = self.hair.map_or_else(Vec::new, |hair| hair_key_light(hair, self.hair_seen, shadow, key));
-        FaceShader { key_light, body_key_light, hair_key_light, ..self }
+        FaceShader { key_light, body_key_light, hair_key_light, shadow: Some(shadow), ..self }
+    }
+
+    /// The fraction of the key light reaching fragment `f` of the skin or body.
+    fn key_reach(&self, f: &Fragment) -> f32 {
+        let values = self.key_light_of(f.part);
+        let [a, b, c] = f.vertex.map(|v| values[v as usize]);
+        match self.shadow {
+            Some(shadow) if a.max(b).max(c) - a.min(b).min(c) > SHADOW_EDGE => shadow.light(f.position + f.normal * 0.02),
+            _ => a * f.barycentric.x + b * f.barycentric.y + c * f.barycentric.z,
+        }
     }
 
     /// Shades hair cards too (scene part [`HAIR_PART`]), of which the camera sees `seen`
@@ -366,7 +384,7 @@ impl<'a> FaceShader<'a> {
         let Lighting { lights, sky, ground, shadow_floor } = &self.lighting;
         let ambient = sky.lerp(*ground, (0.5 - 0.5 * normal.y).clamp(0.0, 1.0));
         let mut colour = albedo * ambient;
-        let key_reaches = self.interpolate(self.key_light_of(f.part), f);
+        let key_reaches = self.key_reach(f);
         for (n, light) in lights.iter().enumerate() {
             let reach = if n == 0 { shadow_floor + (1.0 - shadow_floor) * key_reaches } else { 1.0 };
             let n_dot_l = normal.dot(light.direction);
@@ -512,7 +530,7 @@ impl<'a> FaceShader<'a> {
         if edge == 0.0 {
             return Vec3::ZERO;
         }
-        let reach = self.interpolate(self.key_light_of(f.part), f);
+        let reach = self.key_reach(f);
         albedo * key.colour * Vec3::new(0.16, 0.035, 0.02) * edge * (0.3 + 0.7 * reach)
     }
 
@@ -532,6 +550,8 @@ impl<'a> FaceShader<'a> {
         let albedo = pigment * tone * fibres * rooted;
         let tangent = f.normal;
         let view = f.view_dir;
+        // Coils scatter light every way along a strand: tightly coiled hair has little sheen.
+        let sheen = if self.identity.hair_texture == HairTexture::Coiled { 0.3 } else { 1.0 };
         let Lighting { lights, sky, ground, shadow_floor } = &self.lighting;
         let key_reaches = self.interpolate(&self.hair_key_light, f);
         let mut colour = albedo * sky.lerp(*ground, 0.5) * 1.2;
@@ -544,8 +564,8 @@ impl<'a> FaceShader<'a> {
                 let half = (light.direction + view).normalize();
                 let t_h = tangent.dot(half);
                 let along = (1.0 - t_h * t_h).max(0.0).sqrt();
-                let primary = lobe_power(along, 48.0) * 0.09;
-                let secondary = lobe_power(along, 12.0) * 0.12 * fibres;
+                let primary = lobe_power(along, 48.0) * 0.09 * sheen;
+                let secondary = lobe_power(along, 12.0) * 0.12 * fibres * sheen;
                 colour += light.colour * (Vec3::splat(primary) + pigment * 2.0 * secondary) * reach * rooted;
             }
         }
