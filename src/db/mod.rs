@@ -358,6 +358,17 @@ pub fn token_sha256(token: &str) -> String {
 mod tests {
     use super::*;
 
+    #[test]
+    fn db_url_reads_a_postgres_url_or_a_path_and_never_shows_the_password() {
+        let parse = |text: &str| text.parse::<DbUrl>().expect("infallible");
+        assert_eq!(parse("lab.db"), DbUrl::Sqlite(PathBuf::from("lab.db")));
+        assert_eq!(parse("/srv/postgres/lab.db"), DbUrl::Sqlite(PathBuf::from("/srv/postgres/lab.db")), "a path that mentions postgres is still a file");
+        let url = "postgres://lab:s3cret@db.example.org:5432/facslab?sslmode=require";
+        assert_eq!(parse(url), DbUrl::Postgres(url.to_string()));
+        assert_eq!(parse(url).to_string(), "postgres://lab@db.example.org:5432/facslab?sslmode=require");
+        assert_eq!(parse("postgresql://db/facslab").to_string(), "postgresql://db/facslab");
+    }
+
     #[tokio::test]
     async fn the_checkpoint_task_copies_the_wal_into_the_database_file() {
         let dir = tempfile::tempdir().expect("temp dir");
