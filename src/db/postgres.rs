@@ -13,6 +13,7 @@
 //! decides on what the other instance committed; any other failure answers
 //! [`DbError::Unavailable`] when nothing was stored, or the request's own error.
 
+use std::sync::Arc;
 use std::time::Duration;
 
 use sqlx::postgres::{PgPool, PgPoolOptions, Postgres};
@@ -36,6 +37,10 @@ pub(crate) const ATTEMPTS: usize = 8;
 pub struct PgBackend {
     pub(crate) reader: PgPool,
     pub(crate) writer: PgPool,
+    /// This instance's starts wait here for their turn before they take a connection: starts of
+    /// a study run one at a time anyway (its row lock), and waiting here leaves the pool's other
+    /// connections to saves. It only orders this instance's starts; the row lock decides.
+    starts: Arc<tokio::sync::Mutex<()>>,
 }
 
 impl PgBackend {
@@ -44,7 +49,7 @@ impl PgBackend {
     pub(crate) async fn open(url: &str) -> Result<PgBackend, DbError> {
         let pool = PgPoolOptions::new().max_connections(CONNECTIONS).acquire_timeout(Duration::from_secs(30)).connect(url).await?;
         MIGRATOR.run(&pool).await?;
-        Ok(PgBackend { reader: pool.clone(), writer: pool })
+        Ok(PgBackend { reader: pool.clone(), writer: pool, starts: Arc::default() })
     }
 
     /// A read-then-write transaction (READ COMMITTED; the statements in it lock what they need).
@@ -55,6 +60,10 @@ impl PgBackend {
     /// Stores one participation change in a transaction of its own, running it again when it
     /// clashed with another transaction.
     pub(crate) async fn store(&self, request: Request) -> Result<Written, DbError> {
+        let _turn = match request {
+            Request::Start(_) => Some(self.starts.lock().await),
+            _ => None,
+        };
         let mut attempt = 1;
         loop {
             match self.attempt(&request).await {

@@ -206,7 +206,14 @@ async fn study_pages_reveal_nothing_about_the_stimulus() {
 
 #[tokio::test(flavor = "multi_thread")]
 async fn study_bad_input_gets_a_clear_4xx_and_stores_nothing() {
-    let (lab, server, http) = emotion_lab("emo", "");
+    for backend in backends() {
+        bad_input_gets_a_clear_4xx(&backend).await;
+    }
+}
+
+async fn bad_input_gets_a_clear_4xx(backend: &Backend) {
+    eprintln!("on {}", backend.name());
+    let (lab, server, http) = emotion_lab_on(backend, "emo", "");
     let token = start(&http, &server, "emo", &[]).await;
     consent_and_demographics(&http, &server, &token).await;
     let position = current_position(&http, &server, &token).await.unwrap();
@@ -251,7 +258,7 @@ async fn study_bad_input_gets_a_clear_4xx_and_stores_nothing() {
     assert_eq!(wrong.status(), 401);
 
     // A token from the CLI opens the export API.
-    let out = facslab_ok(lab.path(), &["admin", "token", "alice", "--study", "emo", "--db", "lab.db"]);
+    let out = facslab_ok(lab.path(), &["admin", "token", "alice", "--study", "emo", "--db", &lab.db]);
     let api_token = String::from_utf8(out.stdout).unwrap().trim().to_string();
     let csv = http.get(server.url("/api/v1/studies/emo/responses.csv")).bearer_auth(&api_token).send().await.unwrap();
     assert_eq!(csv.status(), 200);
