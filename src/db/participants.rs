@@ -122,8 +122,8 @@ pub const CONSENT_WITHIN_MS: i64 = 10 * 60_000;
 
 impl Db {
     /// Starts a participation for `worker_id` (or finds the one it has): assigns the balanced
-    /// share of stimuli and the seeded trial plan, stored by the writer task together with the
-    /// other writes waiting.
+    /// share of stimuli and the seeded trial plan (on SQLite stored by the writer task together
+    /// with the other writes waiting).
     pub async fn start_participation(&self, study_id: i64, design: &StudyDesign, source: &Source, worker_id: &str, platform_params: &str) -> Result<Started, DbError> {
         let request = StartRequest::new(study_id, design, source, worker_id, platform_params);
         match self.write(Request::Start(request)).await? {
@@ -186,7 +186,7 @@ impl Db {
         self.record(Request::Withdraw { token: token.to_string() }).await
     }
 
-    /// Consent, demographics or a withdrawal, through the writer task.
+    /// Consent, demographics, a withdrawal or an exclusion, stored by [`Db::write`].
     async fn record(&self, request: Request) -> Result<(), DbError> {
         match self.write(request).await? {
             Written::Recorded => Ok(()),
@@ -286,8 +286,10 @@ const LOADS_KEPT_MS: i64 = 1_000;
 /// of unexpired reservations), in stimulus id order: counted at most every [`LOADS_KEPT_MS`],
 /// kept current by adding the share of each start the writer stores, and counted again after
 /// anything that makes a participation stop counting (withdrawal, screen-out, exclusion, the
-/// reaper's abandonments, a failed batch). This holds because every change to participations
-/// goes through the writer task.
+/// reaper's abandonments, a failed batch). This holds on SQLite because every change to
+/// participations goes through the writer task; on PostgreSQL, where other instances write too,
+/// the loads are never kept ([`StimulusLoads::uncached`]) and each start counts them under its
+/// study's lock.
 #[derive(Debug)]
 pub(crate) struct StimulusLoads {
     by_study: HashMap<i64, CountedLoads>,
@@ -345,7 +347,7 @@ impl StimulusLoads {
     }
 }
 
-/// A start, as the writer task runs it (the design's facts it needs).
+/// A start, as the steps run it (the design's facts it needs).
 #[derive(Debug, Clone)]
 pub(crate) struct StartRequest {
     pub(super) study_id: i64,
@@ -380,7 +382,7 @@ impl StartRequest {
     }
 }
 
-/// A trial save, as the writer task runs it.
+/// A trial save, as the steps run it.
 #[derive(Debug, Clone)]
 pub(crate) struct SaveRequest {
     pub(super) token: String,
