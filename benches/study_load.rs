@@ -1,6 +1,7 @@
 //! Study server under load: 500 simulated participants on loopback, each arriving (start),
 //! consenting, and saving 20 trials through the JSON save API (10,000 saves), against the real
-//! axum app on a real SQLite file. Prints throughput (all saves over the wall time, and the rate
+//! axum app on a real SQLite file, or on a PostgreSQL database when `FACSLAB_LOAD_POSTGRES` holds
+//! a server's URL (each run makes a database of its own there and drops it). Prints throughput (all saves over the wall time, and the rate
 //! while every participant is active), p50/p99 save latency, start latency, errors and lost
 //! responses (stored rows are counted in the database afterwards).
 //! Run with `cargo bench --bench study_load`.
@@ -8,7 +9,8 @@
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use facslab::db::Db;
+use facslab::db::{Db, DbUrl};
+use sqlx::Connection;
 use facslab::db::studies::StudyStimulus;
 use facslab::study::StudyDesign;
 use facslab::web::{AppState, router};
@@ -108,9 +110,31 @@ struct Run {
     wall: Duration,
 }
 
+/// The PostgreSQL server to run against (`FACSLAB_LOAD_POSTGRES`), if any.
+fn postgres() -> Option<String> {
+    std::env::var("FACSLAB_LOAD_POSTGRES").ok().filter(|url| !url.is_empty())
+}
+
+/// Runs `statement` on the server's own database.
+async fn on_server(server: &str, statement: String) {
+    let mut conn = sqlx::PgConnection::connect(server).await.expect("the PostgreSQL server");
+    sqlx::raw_sql(sqlx::AssertSqlSafe(statement)).execute(&mut conn).await.expect("statement");
+}
+
+/// The run's database: `load.db` in `dir`, or a new database on the PostgreSQL server (its name,
+/// to drop it afterwards).
+async fn database(dir: &std::path::Path) -> (DbUrl, Option<String>) {
+    let Some(server) = postgres() else { return (DbUrl::Sqlite(dir.join("load.db")), None) };
+    let name = format!("facslab_load_{}_{}", std::process::id(), Instant::now().elapsed().as_nanos() ^ u128::from(facslab::db::now_ms() as u64));
+    on_server(&server, format!("CREATE DATABASE {name}")).await;
+    let root = server.rsplit_once('/').map_or(server.as_str(), |(root, _)| root);
+    (DbUrl::Postgres(format!("{root}/{name}")), Some(name))
+}
+
 async fn run_once() -> Run {
     let dir = tempfile::tempdir().expect("temp dir");
-    let db = Db::open(&dir.path().join("load.db")).await.expect("database");
+    let (url, made) = database(dir.path()).await;
+    let db = Db::open(&url).await.expect("database");
     let design = StudyDesign::from_toml(DESIGN).expect("design");
     let stimuli: Vec<StudyStimulus> = (0..TRIALS)
         .map(|i| StudyStimulus::still(facslab::stimuli::StimulusId::parse(&facslab::stimuli::stimulus_id(1, i)).expect("id")))
@@ -131,6 +155,10 @@ async fn run_once() -> Run {
     let wall = clock.elapsed();
     let progress = db.progress(study).await.expect("progress");
     server.abort();
+    db.close().await;
+    if let (Some(server), Some(name)) = (postgres(), made) {
+        on_server(&server, format!("DROP DATABASE {name} WITH (FORCE)")).await;
+    }
     Run { participants: seen, stored: progress.responses, completed: progress.completed, wall }
 }
 

@@ -159,7 +159,7 @@ enum Command {
     Studio(studio::StudioArgs),
 
     /// Serve the study web app (participants and admin) from a study database.
-    #[command(after_help = "Examples:\n  facslab serve --db lab.db\n  facslab serve --db lab.db --host 0.0.0.0 --port 8080\n\nCreate studies with `facslab study create` and the first admin with `facslab admin create`.")]
+    #[command(after_help = "Examples:\n  facslab serve --db lab.db\n  facslab serve --db lab.db --host 0.0.0.0 --port 8080\n  facslab serve --db postgres://lab@db.example.org/facslab --host 0.0.0.0   # several servers, one database\n\nCreate studies with `facslab study create` and the first admin with `facslab admin create`.")]
     Serve(web::ServeArgs),
 
     /// Create, check, list, open and close studies.

@@ -7,7 +7,7 @@ use anyhow::{Context, bail};
 use clap::{Args, Subcommand};
 
 use crate::web::{AppState, serve};
-use crate::db::Db;
+use crate::db::{Db, DbUrl};
 use crate::db::admin::Role;
 use crate::db::export::{Format, Scope};
 use crate::db::studies::StudyStatus;
@@ -19,9 +19,10 @@ const DEMO_STUDIES: [&str; 2] = [include_str!("../../studies/demo-emotions.toml"
 
 #[derive(Args)]
 pub struct ServeArgs {
-    /// The study database (SQLite; created with its schema if missing).
+    /// The study database: an SQLite file (created with its schema if missing) or a
+    /// `postgres://user@host/database` URL (several servers can share one).
     #[arg(long, default_value = "facslab.db")]
-    pub db: PathBuf,
+    pub db: DbUrl,
     /// Address to listen on.
     #[arg(long, default_value = "127.0.0.1")]
     pub host: IpAddr,
@@ -68,6 +69,9 @@ pub struct DemoArgs {
     /// Build the set and the studies, print the URLs, and exit without serving.
     #[arg(long)]
     pub no_serve: bool,
+    /// The study database (default: `study.db` in the output directory; or a `postgres://` URL).
+    #[arg(long)]
+    pub db: Option<DbUrl>,
 }
 
 #[derive(Subcommand)]
@@ -81,7 +85,7 @@ pub enum StudyCommand {
         #[arg(long)]
         set: Option<PathBuf>,
         #[arg(long, default_value = "facslab.db")]
-        db: PathBuf,
+        db: DbUrl,
         /// Open the study for participants right away.
         #[arg(long)]
         open: bool,
@@ -93,7 +97,7 @@ pub enum StudyCommand {
     #[command(after_help = "Example:\n  facslab study list --db lab.db")]
     List {
         #[arg(long, default_value = "facslab.db")]
-        db: PathBuf,
+        db: DbUrl,
     },
     /// Open, close or return a study to draft.
     #[command(after_help = "Example:\n  facslab study status exp3 open --db lab.db")]
@@ -102,7 +106,7 @@ pub enum StudyCommand {
         #[arg(value_parser = parse_status)]
         status: StudyStatus,
         #[arg(long, default_value = "facslab.db")]
-        db: PathBuf,
+        db: DbUrl,
     },
 }
 
@@ -115,7 +119,7 @@ pub enum AdminCommand {
         #[arg(long, default_value = "admin", value_parser = ["admin", "researcher", "viewer"])]
         role: String,
         #[arg(long, default_value = "facslab.db")]
-        db: PathBuf,
+        db: DbUrl,
     },
     /// Make a token for the export API that reaches one study until it expires (printed once).
     #[command(after_help = "Example:\n  facslab admin token alice --study exp3 --days 30 --label nightly-backup --db lab.db\n  curl -H \"Authorization: Bearer TOKEN\" http://host/api/v1/studies/exp3/responses.csv")]
@@ -133,14 +137,14 @@ pub enum AdminCommand {
         #[arg(long, default_value = "api")]
         label: String,
         #[arg(long, default_value = "facslab.db")]
-        db: PathBuf,
+        db: DbUrl,
     },
     /// Write a consistent copy of the database while the server runs (VACUUM INTO).
     #[command(after_help = "Example:\n  facslab admin backup backup-2026-11-23.db --db lab.db")]
     Backup {
         output: PathBuf,
         #[arg(long, default_value = "facslab.db")]
-        db: PathBuf,
+        db: DbUrl,
     },
 }
 
@@ -157,7 +161,7 @@ pub struct ExportArgs {
     #[arg(long)]
     pub all: bool,
     #[arg(long, default_value = "facslab.db")]
-    pub db: PathBuf,
+    pub db: DbUrl,
     /// Output file (psych-ds: a directory that does not exist yet).
     #[arg(short, long)]
     pub output: PathBuf,
@@ -173,8 +177,8 @@ fn runtime() -> anyhow::Result<tokio::runtime::Runtime> {
     Ok(tokio::runtime::Builder::new_multi_thread().enable_all().build()?)
 }
 
-async fn open(db: &Path) -> anyhow::Result<Db> {
-    Db::open(db).await.with_context(|| format!("opening the study database {}", db.display()))
+async fn open(db: &DbUrl) -> anyhow::Result<Db> {
+    Db::open(db).await.with_context(|| format!("opening the study database {db}"))
 }
 
 pub fn serve_command(args: ServeArgs) -> anyhow::Result<()> {
@@ -183,7 +187,7 @@ pub fn serve_command(args: ServeArgs) -> anyhow::Result<()> {
         let db = open(&args.db).await?;
         let state = AppState::new(db)?.with_edge(edge);
         serve(state, SocketAddr::new(args.host, args.port), |addr| {
-            println!("facslab study server on http://{addr}/admin  (database {}; Ctrl-C stops)", args.db.display());
+            println!("facslab study server on http://{addr}/admin  (database {}; Ctrl-C stops)", args.db);
         })
         .await
     })
@@ -301,7 +305,7 @@ pub struct ReportArgs {
     #[arg(long)]
     pub study: String,
     #[arg(long, default_value = "facslab.db")]
-    pub db: PathBuf,
+    pub db: DbUrl,
     /// Output directory for the report.
     #[arg(short, long)]
     pub output: PathBuf,
@@ -324,7 +328,7 @@ pub fn report_command(args: ReportArgs) -> anyhow::Result<()> {
     let scope = if args.all { Scope::All } else { Scope::Completed };
     let (rows, set_dir) = runtime()?.block_on(async {
         let db = open(&args.db).await?;
-        let row = db.study_by_slug(&args.study).await?.with_context(|| format!("no study \"{}\" in {}", args.study, args.db.display()))?;
+        let row = db.study_by_slug(&args.study).await?.with_context(|| format!("no study \"{}\" in {}", args.study, args.db))?;
         anyhow::Ok((db.long_rows(row.id, scope).await?, PathBuf::from(row.set_dir)))
     })?;
     if rows.is_empty() {
@@ -353,7 +357,7 @@ pub fn demo_command(args: DemoArgs) -> anyhow::Result<()> {
     eprintln!("building the demo stimulus set in {} ...", set_dir.display());
     // Dithered with the set's own key (made on the first run, kept in the set directory).
     crate::stimuli::build(&spec, &set_dir, &crate::stimuli::build::BuildOptions { jobs: None, progress: true, ..Default::default() })?;
-    let db_path = args.output.join("study.db");
+    let db_path = args.db.clone().unwrap_or_else(|| DbUrl::Sqlite(args.output.join("study.db")));
     runtime()?.block_on(async {
         let db = open(&db_path).await?;
         let mut slugs = Vec::new();
@@ -374,7 +378,7 @@ pub fn demo_command(args: DemoArgs) -> anyhow::Result<()> {
             format!("password in {}", args.output.join("admin-password.txt").display())
         };
         let print = |addr: SocketAddr| {
-            println!("facslab demo (database {}):", db_path.display());
+            println!("facslab demo (database {db_path}):");
             for slug in &slugs {
                 println!("  participant: http://{addr}/s/{slug}");
             }

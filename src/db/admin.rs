@@ -6,9 +6,7 @@
 
 use argon2::password_hash::{PasswordHash, PasswordHasher, PasswordVerifier, SaltString};
 use argon2::Argon2;
-use sqlx::Row;
-
-use super::{Db, DbError, now_ms, secret_token, token_sha256};
+use super::{Db, DbError, now_ms, on_backend, secret_token, token_sha256};
 
 /// What an admin may do.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, serde::Serialize)]
@@ -95,30 +93,26 @@ impl Db {
             move || hash_password(&password)
         })
         .await??;
-        let done = sqlx::query("INSERT INTO admins (username, password_hash, role, created_at) VALUES (?, ?, ?, ?) ON CONFLICT (username) DO NOTHING")
-            .bind(username)
-            .bind(hash)
-            .bind(role.as_str())
-            .bind(now_ms())
-            .execute(&self.writer)
-            .await?;
-        if done.rows_affected() == 0 {
+        let sql = "INSERT INTO admins (username, password_hash, role, created_at) VALUES ($1, $2, $3, $4) ON CONFLICT (username) DO NOTHING";
+        let done = on_backend!(self, b => sqlx::query(sql).bind(username).bind(&hash).bind(role.as_str()).bind(now_ms()).execute(&b.writer).await?.rows_affected());
+        if done == 0 {
             return Err(DbError::Conflict(format!("an admin \"{username}\" exists already")));
         }
         Ok(())
     }
 
     pub async fn admin_count(&self) -> Result<i64, DbError> {
-        Ok(sqlx::query("SELECT COUNT(*) FROM admins").fetch_one(&self.reader).await?.get(0))
+        Ok(on_backend!(self, b => sqlx::query_scalar("SELECT COUNT(*) FROM admins").fetch_one(&b.reader).await?))
     }
 
     /// Checks a password; on success opens a session and returns its cookie token.
     pub async fn login(&self, username: &str, password: &str) -> Result<Option<String>, DbError> {
-        let row = sqlx::query("SELECT id, password_hash FROM admins WHERE username = ?").bind(username).fetch_optional(&self.reader).await?;
+        let sql = "SELECT id, password_hash FROM admins WHERE username = $1";
+        let row: Option<(i64, String)> = on_backend!(self, b => sqlx::query_as(sql).bind(username).fetch_optional(&b.reader).await?);
         // Without the account, spend the same time on a stand-in hash, so timing does not
         // reveal usernames.
         let (admin, phc) = match row {
-            Some(row) => (Some(row.get::<i64, _>(0)), row.get::<String, _>(1)),
+            Some((id, phc)) => (Some(id), phc),
             None => (None, "$argon2id$v=19$m=19456,t=2,p=1$c29tZXNhbHRzb21lc2FsdA$8S4kLqgpA4M5pyNCP3Gr7GOsAdsjvuyhVCoR33RUYAM".to_string()),
         };
         let password = password.to_string();
@@ -127,36 +121,33 @@ impl Db {
             return Ok(None);
         };
         let token = secret_token();
-        sqlx::query("INSERT INTO admin_sessions (token_sha256, admin_id, expires_at) VALUES (?, ?, ?)")
-            .bind(token_sha256(&token))
-            .bind(admin)
-            .bind(now_ms() + SESSION_MS)
-            .execute(&self.writer)
-            .await?;
+        let sql = "INSERT INTO admin_sessions (token_sha256, admin_id, expires_at) VALUES ($1, $2, $3)";
+        on_backend!(self, b => sqlx::query(sql).bind(token_sha256(&token)).bind(admin).bind(now_ms() + SESSION_MS).execute(&b.writer).await?.rows_affected());
         Ok(Some(token))
     }
 
-    /// The row `sql` finds for a secret that is live now (`sql` takes the secret's SHA-256 and now).
-    async fn live_secret(&self, sql: &'static str, token: &str) -> Result<Option<sqlx::sqlite::SqliteRow>, DbError> {
-        Ok(sqlx::query(sql).bind(token_sha256(token)).bind(now_ms()).fetch_optional(&self.reader).await?)
+    /// The row `sql` finds for a secret that is live now (`sql` takes the secret's SHA-256 and
+    /// now; its columns are an integer and two texts).
+    async fn live_secret(&self, sql: &'static str, token: &str) -> Result<Option<(i64, String, String)>, DbError> {
+        Ok(on_backend!(self, b => sqlx::query_as(sql).bind(token_sha256(token)).bind(now_ms()).fetch_optional(&b.reader).await?))
     }
 
     /// The admin behind a session cookie, if the session is live.
     pub async fn admin_session(&self, token: &str) -> Result<Option<AdminSession>, DbError> {
-        let sql = "SELECT a.id, a.username, a.role FROM admin_sessions s JOIN admins a ON a.id = s.admin_id WHERE s.token_sha256 = ? AND s.expires_at > ?";
+        let sql = "SELECT a.id, a.username, a.role FROM admin_sessions s JOIN admins a ON a.id = s.admin_id WHERE s.token_sha256 = $1 AND s.expires_at > $2";
         Ok(self.live_secret(sql, token).await?.and_then(|r| {
-            Some(AdminSession { admin_id: r.get(0), username: r.get(1), role: Role::parse(r.get::<&str, _>(2))?, csrf_token: csrf_token(token) })
+            Some(AdminSession { admin_id: r.0, username: r.1, role: Role::parse(&r.2)?, csrf_token: csrf_token(token) })
         }))
     }
 
     pub async fn logout(&self, token: &str) -> Result<(), DbError> {
-        sqlx::query("DELETE FROM admin_sessions WHERE token_sha256 = ?").bind(token_sha256(token)).execute(&self.writer).await?;
+        on_backend!(self, b => sqlx::query("DELETE FROM admin_sessions WHERE token_sha256 = $1").bind(token_sha256(token)).execute(&b.writer).await?.rows_affected());
         Ok(())
     }
 
     /// Deletes the login sessions that expired before `now`; returns how many.
     pub async fn purge_expired_sessions(&self, now: i64) -> Result<u64, DbError> {
-        Ok(sqlx::query("DELETE FROM admin_sessions WHERE expires_at <= ?").bind(now).execute(&self.writer).await?.rows_affected())
+        Ok(on_backend!(self, b => sqlx::query("DELETE FROM admin_sessions WHERE expires_at <= $1").bind(now).execute(&b.writer).await?.rows_affected()))
     }
 
     /// Creates an export API token for an admin (by username) that reaches study `slug` with
@@ -166,35 +157,29 @@ impl Db {
         if !(1..=MAX_TOKEN_DAYS).contains(&days) {
             return Err(DbError::Invalid(format!("a token lasts 1 to {MAX_TOKEN_DAYS} days, not {days}")));
         }
-        let admin = sqlx::query("SELECT id, role FROM admins WHERE username = ?").bind(username).fetch_optional(&self.reader).await?;
-        let admin = admin.ok_or_else(|| DbError::NotFound(format!("no admin \"{username}\"")))?;
-        let owner = Role::parse(admin.get::<&str, _>(1)).unwrap_or(Role::Viewer);
+        let sql = "SELECT id, role FROM admins WHERE username = $1";
+        let admin: Option<(i64, String)> = on_backend!(self, b => sqlx::query_as(sql).bind(username).fetch_optional(&b.reader).await?);
+        let (admin_id, owner) = admin.ok_or_else(|| DbError::NotFound(format!("no admin \"{username}\"")))?;
+        let owner = Role::parse(&owner).unwrap_or(Role::Viewer);
         if role == Role::Admin || role > owner {
             return Err(DbError::Invalid(format!("a token's role is viewer or researcher, at most its owner's ({})", owner.as_str())));
         }
         let study = self.study_by_slug(slug).await?.ok_or_else(|| DbError::NotFound(format!("no study \"{slug}\"")))?;
         let token = format!("fl_{}", secret_token());
         let now = now_ms();
-        sqlx::query("INSERT INTO api_tokens (token_sha256, admin_id, study_id, role, label, created_at, expires_at) VALUES (?, ?, ?, ?, ?, ?, ?)")
-            .bind(token_sha256(&token))
-            .bind(admin.get::<i64, _>(0))
-            .bind(study.id)
-            .bind(role.as_str())
-            .bind(label)
-            .bind(now)
-            .bind(now + i64::from(days) * 86_400_000)
-            .execute(&self.writer)
-            .await?;
+        let sql = "INSERT INTO api_tokens (token_sha256, admin_id, study_id, role, label, created_at, expires_at) VALUES ($1, $2, $3, $4, $5, $6, $7)";
+        let expires = now + i64::from(days) * 86_400_000;
+        on_backend!(self, b => sqlx::query(sql).bind(token_sha256(&token)).bind(admin_id).bind(study.id).bind(role.as_str()).bind(label).bind(now).bind(expires).execute(&b.writer).await?.rows_affected());
         Ok(token)
     }
 
     /// What an API token reaches now: `None` when it is unknown or expired. Its role is capped
     /// by its owner's role now.
     pub async fn api_token_scope(&self, token: &str) -> Result<Option<ApiScope>, DbError> {
-        let sql = "SELECT t.study_id, t.role, a.role FROM api_tokens t JOIN admins a ON a.id = t.admin_id WHERE t.token_sha256 = ? AND t.expires_at > ?";
+        let sql = "SELECT t.study_id, t.role, a.role FROM api_tokens t JOIN admins a ON a.id = t.admin_id WHERE t.token_sha256 = $1 AND t.expires_at > $2";
         Ok(self.live_secret(sql, token).await?.and_then(|r| {
-            let role = Role::parse(r.get::<&str, _>(1))?.min(Role::parse(r.get::<&str, _>(2))?);
-            Some(ApiScope { study_id: r.get(0), role })
+            let role = Role::parse(&r.1)?.min(Role::parse(&r.2)?);
+            Some(ApiScope { study_id: r.0, role })
         }))
     }
 }

@@ -9,11 +9,10 @@
 use std::collections::HashMap;
 
 use futures_util::StreamExt;
-use sqlx::Row;
 use tokio::sync::mpsc;
 
 use super::participants::Demographics;
-use super::{Db, DbError};
+use super::{Db, DbError, Fields, on_backend};
 use crate::analysis::responses::LongRow;
 use crate::stimuli::manifest::StimulusId;
 use crate::study::StudyDesign;
@@ -147,7 +146,7 @@ impl ParticipantRecord {
 /// The scope's condition on participations.
 pub(super) fn scope_sql(scope: Scope) -> &'static str {
     match scope {
-        Scope::Completed => "p.state = 'completed' AND p.excluded = 0",
+        Scope::Completed => "p.state = 'completed' AND NOT p.excluded",
         Scope::All => "p.state <> 'withdrawn'",
     }
 }
@@ -230,10 +229,11 @@ impl Db {
         let sql = format!(
             "SELECT p.id, p.public_id, p.grp, p.state, p.excluded, t.position, t.kind, t.stimulus_id, r.answers, r.rt_ms, r.video_ended, r.load_failed, r.received_at, r.viewing, p.arm
              FROM participants p JOIN trials t ON t.participant_id = p.id JOIN responses r ON r.participant_id = t.participant_id AND r.position = t.position
-             WHERE p.study_id = ? AND {} ORDER BY p.id, t.position",
+             WHERE p.study_id = $1 AND {} ORDER BY p.id, t.position",
             scope_sql(scope)
         );
-        let mut rows = sqlx::query(sqlx::AssertSqlSafe(sql)).bind(study_id).fetch(&self.reader);
+        on_backend!(self, b => {
+        let mut rows = sqlx::query(sqlx::AssertSqlSafe(sql)).bind(study_id).fetch(&b.reader);
         let mut current: Option<(i64, ParticipantRecord)> = None;
         while let Some(row) = rows.next().await {
             let row = row?;
@@ -249,7 +249,7 @@ impl Db {
                     group: row.get(2),
                     arm: row.get(14),
                     state: row.get(3),
-                    excluded: row.get::<i64, _>(4) != 0,
+                    excluded: row.get(4),
                     demographics: demographics.get(&id).cloned(),
                     trials: Vec::new(),
                 };
@@ -263,29 +263,29 @@ impl Db {
             each(record).await;
         }
         Ok(())
+        })
     }
 
     /// The stimuli each lead shows beside it, in page order (`[au_coding] together`).
     async fn shown_beside(&self, study_id: i64) -> Result<HashMap<String, Vec<String>>, DbError> {
-        let rows = sqlx::query("SELECT lead, stimulus_id FROM stimuli WHERE study_id = ? AND lead IS NOT NULL ORDER BY lead, part").bind(study_id).fetch_all(&self.reader).await?;
+        let sql = "SELECT lead, stimulus_id FROM stimuli WHERE study_id = $1 AND lead IS NOT NULL ORDER BY lead, part";
+        let rows: Vec<(String, String)> = on_backend!(self, b => sqlx::query_as(sql).bind(study_id).fetch_all(&b.reader).await?);
         let mut beside: HashMap<String, Vec<String>> = HashMap::new();
-        for row in rows {
-            beside.entry(row.get(0)).or_default().push(row.get(1));
+        for (lead, stimulus) in rows {
+            beside.entry(lead).or_default().push(stimulus);
         }
         Ok(beside)
     }
 
     pub(super) async fn demographics_of(&self, study_id: i64) -> Result<HashMap<i64, Demographics>, DbError> {
-        let rows = sqlx::query("SELECT d.participant_id, d.age, d.gender, d.ethnicity, d.education FROM demographics d JOIN participants p ON p.id = d.participant_id WHERE p.study_id = ?")
-            .bind(study_id)
-            .fetch_all(&self.reader)
-            .await?;
-        Ok(rows.into_iter().map(|r| (r.get(0), Demographics { age: r.get(1), gender: r.get(2), ethnicity: r.get(3), education: r.get(4) })).collect())
+        let sql = "SELECT d.participant_id, d.age, d.gender, d.ethnicity, d.education FROM demographics d JOIN participants p ON p.id = d.participant_id WHERE p.study_id = $1";
+        let rows: Vec<(i64, Option<i64>, String, String, String)> = on_backend!(self, b => sqlx::query_as(sql).bind(study_id).fetch_all(&b.reader).await?);
+        Ok(rows.into_iter().map(|(id, age, gender, ethnicity, education)| (id, Demographics { age, gender, ethnicity, education })).collect())
     }
 }
 
 /// One saved trial of the export query's row (`beside`: what each lead shows beside it).
-fn trial_record(row: &sqlx::sqlite::SqliteRow, beside: &HashMap<String, Vec<String>>) -> Result<TrialRecord, DbError> {
+fn trial_record(row: &impl Fields, beside: &HashMap<String, Vec<String>>) -> Result<TrialRecord, DbError> {
     let answers: String = row.get(8);
     let answers: Vec<(String, String)> = serde_json::from_str(&answers).map_err(|e| DbError::Internal(format!("stored answer unreadable: {e}")))?;
     let viewing = row.get::<Option<String>, _>(13).map(|v| serde_json::from_str(&v)).transpose().map_err(|e| DbError::Internal(format!("stored viewing unreadable: {e}")))?;
@@ -298,8 +298,8 @@ fn trial_record(row: &sqlx::sqlite::SqliteRow, beside: &HashMap<String, Vec<Stri
         shown,
         answers,
         rt_ms: row.get(9),
-        video_ended: row.get::<Option<i64>, _>(10).map(|v| v != 0),
-        load_failed: row.get::<i64, _>(11) != 0,
+        video_ended: row.get(10),
+        load_failed: row.get(11),
         viewing,
         received_at: row.get(12),
     })

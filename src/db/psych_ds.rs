@@ -22,10 +22,9 @@
 use std::path::Path;
 
 use serde_json::{Value, json};
-use sqlx::Row;
 
 use super::export::{Scope, codebook_rows};
-use super::{Db, DbError};
+use super::{Db, DbError, on_backend};
 use crate::study::StudyDesign;
 use crate::study::measure::Demographic;
 
@@ -82,13 +81,13 @@ impl Db {
 
     /// The participants of the scope: id, group, arm, state and demographics, as CSV.
     async fn participants_table(&self, study_id: i64, scope: Scope) -> Result<String, DbError> {
-        let sql = format!("SELECT p.id, p.public_id, p.grp, p.arm, p.state FROM participants p WHERE p.study_id = ? AND {} ORDER BY p.id", super::export::scope_sql(scope));
-        let rows = sqlx::query(sqlx::AssertSqlSafe(sql)).bind(study_id).fetch_all(&self.reader).await?;
+        let sql = format!("SELECT p.id, p.public_id, p.grp, p.arm, p.state FROM participants p WHERE p.study_id = $1 AND {} ORDER BY p.id", super::export::scope_sql(scope));
+        let rows: Vec<(i64, String, String, String, String)> = on_backend!(self, b => sqlx::query_as(sqlx::AssertSqlSafe(sql)).bind(study_id).fetch_all(&b.reader).await?);
         let demographics = self.demographics_of(study_id).await?;
         let mut out = crate::tabular::line(["participant_id", "group"].into_iter().chain(PARTICIPANT_COLUMNS.map(|c| c.0)).chain(Demographic::ALL.map(Demographic::name)));
-        for row in rows {
-            let d = demographics.get(&row.get::<i64, _>(0)).cloned().unwrap_or_default();
-            let fixed: [String; 4] = [row.get(1), row.get(2), row.get(3), row.get(4)];
+        for (id, public_id, group, arm, state) in rows {
+            let d = demographics.get(&id).cloned().unwrap_or_default();
+            let fixed: [String; 4] = [public_id, group, arm, state];
             crate::tabular::record(&mut out, fixed.into_iter().chain(Demographic::ALL.map(|m| d.text(m))));
         }
         Ok(out)

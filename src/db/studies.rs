@@ -5,9 +5,7 @@
 //! when read (from the manifest or the database), and a stored value that is none of them is a
 //! [`DbError::Internal`] naming it.
 
-use sqlx::Row;
-
-use super::{Db, DbError, now_ms};
+use super::{Db, DbError, Fields, now_ms, on_backend};
 use crate::stimuli::manifest::{Media, StimulusId};
 use crate::study::StudyDesign;
 
@@ -60,6 +58,10 @@ pub struct StudyRow {
     pub title: String,
     pub status: StudyStatus,
     pub set_dir: String,
+    /// The set's content hash when the study was made ([`set_sha256`]; `None` for studies made
+    /// before it was recorded).
+    #[serde(skip)]
+    pub set_sha256: Option<String>,
     #[serde(skip)]
     pub spec_toml: String,
 }
@@ -125,26 +127,28 @@ pub struct Progress {
     pub stimuli: i64,
 }
 
-fn study_row(row: sqlx::sqlite::SqliteRow) -> Result<StudyRow, DbError> {
-    let status: &str = row.get("status");
+fn study_row(row: &impl Fields) -> Result<StudyRow, DbError> {
+    let status: String = row.get("status");
     Ok(StudyRow {
         id: row.get("id"),
         slug: row.get("slug"),
         title: row.get("title"),
-        status: stored(StudyStatus::parse(status), "study status", status)?,
+        status: stored(StudyStatus::parse(&status), "study status", &status)?,
         set_dir: row.get("set_dir"),
+        set_sha256: row.get("set_sha256"),
         spec_toml: row.get("spec_toml"),
     })
 }
 
-fn study_stimulus(row: sqlx::sqlite::SqliteRow) -> Result<StudyStimulus, DbError> {
-    let (id, media, lead): (&str, &str, Option<&str>) = (row.get(0), row.get(1), row.get(4));
+fn study_stimulus(row: &impl Fields) -> Result<StudyStimulus, DbError> {
+    let (id, media, lead): (String, String, Option<String>) = (row.get(0), row.get(1), row.get(4));
+    let id = id.as_str();
     Ok(StudyStimulus {
         stimulus_id: stored(StimulusId::parse(id).ok(), "stimulus id", id)?,
-        media: stored(Media::parse(media), "media kind", media)?,
+        media: stored(Media::parse(&media), "media kind", &media)?,
         file: row.get(2),
         emotion: row.get(3),
-        lead: lead.map(|lead| stored(StimulusId::parse(lead).ok(), "lead stimulus id", lead)).transpose()?,
+        lead: lead.map(|lead| stored(StimulusId::parse(&lead).ok(), "lead stimulus id", &lead)).transpose()?,
         part: row.get::<i64, _>(5).try_into().map_err(|_| DbError::Internal(format!("stimulus {id} has a negative part")))?,
         fps: row.get::<Option<i64>, _>(6).and_then(|fps| u32::try_from(fps).ok()),
         arms: row.get::<String, _>(7).split_whitespace().map(str::to_string).collect(),
@@ -154,23 +158,32 @@ fn study_stimulus(row: sqlx::sqlite::SqliteRow) -> Result<StudyStimulus, DbError
 impl Db {
     /// Stores a study (as `draft`, or `open` when asked) with the stimuli it shows.
     pub async fn create_study(&self, design: &StudyDesign, spec_toml: &str, set_dir: &str, stimuli: &[StudyStimulus], open: bool) -> Result<i64, DbError> {
-        let mut tx = self.immediate().await?;
-        let exists = sqlx::query("SELECT 1 FROM studies WHERE slug = ?").bind(&design.slug).fetch_optional(&mut *tx).await?;
+        self.store_study(design, spec_toml, (set_dir, None), stimuli, open).await
+    }
+
+    /// [`Db::create_study`] over `set` (its directory and, when known, its content hash
+    /// [`set_sha256`], which servers check their copy against).
+    async fn store_study(&self, design: &StudyDesign, spec_toml: &str, set: (&str, Option<&str>), stimuli: &[StudyStimulus], open: bool) -> Result<i64, DbError> {
+        let (set_dir, set_sha256) = set;
+        on_backend!(self, b => {
+        let mut tx = b.immediate().await?;
+        let exists = sqlx::query("SELECT 1 FROM studies WHERE slug = $1").bind(&design.slug).fetch_optional(&mut *tx).await?;
         if exists.is_some() {
             return Err(DbError::Conflict(format!("a study \"{}\" exists already", design.slug)));
         }
-        let id: i64 = sqlx::query("INSERT INTO studies (slug, title, spec_toml, set_dir, status, created_at) VALUES (?, ?, ?, ?, ?, ?) RETURNING id")
+        let id: i64 = sqlx::query("INSERT INTO studies (slug, title, spec_toml, set_dir, status, created_at, set_sha256) VALUES ($1, $2, $3, $4, $5, $6, $7) RETURNING id")
             .bind(&design.slug)
             .bind(&design.title)
             .bind(spec_toml)
             .bind(set_dir)
             .bind(if open { StudyStatus::Open } else { StudyStatus::Draft }.as_str())
             .bind(now_ms())
+            .bind(set_sha256)
             .fetch_one(&mut *tx)
             .await?
             .get(0);
         for s in stimuli {
-            sqlx::query("INSERT INTO stimuli (study_id, stimulus_id, media, file, emotion, lead, part, fps, arms) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)")
+            sqlx::query("INSERT INTO stimuli (study_id, stimulus_id, media, file, emotion, lead, part, fps, arms) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9)")
                 .bind(id)
                 .bind(s.stimulus_id.as_str())
                 .bind(s.media.as_str())
@@ -185,6 +198,7 @@ impl Db {
         }
         tx.commit().await?;
         Ok(id)
+        })
     }
 
     /// Creates a study from a design's TOML text over the built set in `set_dir` (stored as an
@@ -192,47 +206,43 @@ impl Db {
     pub async fn create_study_from(&self, spec_toml: &str, set_dir: &std::path::Path, open: bool) -> Result<StudyDesign, DbError> {
         let design = StudyDesign::from_toml(spec_toml)?;
         let stimuli = set_stimuli(set_dir, &design)?;
+        let hash = set_sha256(set_dir)?;
         let set_dir = std::path::absolute(set_dir).unwrap_or_else(|_| set_dir.to_path_buf());
-        self.create_study(&design, spec_toml, &set_dir.to_string_lossy(), &stimuli, open).await?;
+        self.store_study(&design, spec_toml, (&set_dir.to_string_lossy(), Some(&hash)), &stimuli, open).await?;
         Ok(design)
     }
 
     pub async fn study_by_slug(&self, slug: &str) -> Result<Option<StudyRow>, DbError> {
-        sqlx::query("SELECT * FROM studies WHERE slug = ?").bind(slug).fetch_optional(&self.reader).await?.map(study_row).transpose()
+        on_backend!(self, b => sqlx::query("SELECT * FROM studies WHERE slug = $1").bind(slug).fetch_optional(&b.reader).await?.map(|r| study_row(&r)).transpose())
     }
 
     pub async fn study_by_id(&self, id: i64) -> Result<Option<StudyRow>, DbError> {
-        sqlx::query("SELECT * FROM studies WHERE id = ?").bind(id).fetch_optional(&self.reader).await?.map(study_row).transpose()
+        on_backend!(self, b => sqlx::query("SELECT * FROM studies WHERE id = $1").bind(id).fetch_optional(&b.reader).await?.map(|r| study_row(&r)).transpose())
     }
 
     pub async fn studies(&self) -> Result<Vec<StudyRow>, DbError> {
-        sqlx::query("SELECT * FROM studies ORDER BY id").fetch_all(&self.reader).await?.into_iter().map(study_row).collect()
+        on_backend!(self, b => sqlx::query("SELECT * FROM studies ORDER BY id").fetch_all(&b.reader).await?.iter().map(study_row).collect())
     }
 
     pub async fn set_study_status(&self, slug: &str, status: StudyStatus) -> Result<(), DbError> {
-        let done = sqlx::query("UPDATE studies SET status = ? WHERE slug = ?").bind(status.as_str()).bind(slug).execute(&self.writer).await?;
-        if done.rows_affected() == 0 {
+        let sql = "UPDATE studies SET status = $1 WHERE slug = $2";
+        let done = on_backend!(self, b => sqlx::query(sql).bind(status.as_str()).bind(slug).execute(&b.writer).await?.rows_affected());
+        if done == 0 {
             return Err(DbError::NotFound(format!("no study \"{slug}\"")));
         }
         Ok(())
     }
 
     pub async fn study_stimuli(&self, study_id: i64) -> Result<Vec<StudyStimulus>, DbError> {
-        let rows = sqlx::query("SELECT stimulus_id, media, file, emotion, lead, part, fps, arms FROM stimuli WHERE study_id = ? ORDER BY stimulus_id")
-            .bind(study_id)
-            .fetch_all(&self.reader)
-            .await?;
-        rows.into_iter().map(study_stimulus).collect()
+        let sql = "SELECT stimulus_id, media, file, emotion, lead, part, fps, arms FROM stimuli WHERE study_id = $1 ORDER BY stimulus_id";
+        on_backend!(self, b => sqlx::query(sql).bind(study_id).fetch_all(&b.reader).await?.iter().map(study_stimulus).collect())
     }
 
     pub async fn progress(&self, study_id: i64) -> Result<Progress, DbError> {
         let mut p = Progress::default();
-        let rows = sqlx::query("SELECT state, COUNT(*), SUM(excluded) FROM participants WHERE study_id = ? GROUP BY state")
-            .bind(study_id)
-            .fetch_all(&self.reader)
-            .await?;
-        for row in rows {
-            let (state, n, excluded): (String, i64, i64) = (row.get(0), row.get(1), row.get(2));
+        let sql = "SELECT state, COUNT(*), SUM(CASE WHEN excluded THEN 1 ELSE 0 END) FROM participants WHERE study_id = $1 GROUP BY state";
+        let rows: Vec<(String, i64, i64)> = on_backend!(self, b => sqlx::query_as(sql).bind(study_id).fetch_all(&b.reader).await?);
+        for (state, n, excluded) in rows {
             p.excluded += excluded;
             match state.as_str() {
                 "reserved" => p.reserved = n,
@@ -243,35 +253,52 @@ impl Db {
                 _ => p.screened_out = n,
             }
         }
-        p.responses = sqlx::query("SELECT COUNT(*) FROM responses r JOIN participants p ON p.id = r.participant_id WHERE p.study_id = ?")
-            .bind(study_id)
-            .fetch_one(&self.reader)
-            .await?
-            .get(0);
-        p.stimuli = sqlx::query("SELECT COUNT(*) FROM stimuli WHERE study_id = ? AND lead IS NULL").bind(study_id).fetch_one(&self.reader).await?.get(0);
+        let responses = "SELECT COUNT(*) FROM responses r JOIN participants p ON p.id = r.participant_id WHERE p.study_id = $1";
+        p.responses = on_backend!(self, b => sqlx::query_scalar(responses).bind(study_id).fetch_one(&b.reader).await?);
+        let stimuli = "SELECT COUNT(*) FROM stimuli WHERE study_id = $1 AND lead IS NULL";
+        p.stimuli = on_backend!(self, b => sqlx::query_scalar(stimuli).bind(study_id).fetch_one(&b.reader).await?);
         Ok(p)
     }
 
     /// Completed, non-excluded main-trial responses per stimulus that has trials (for balance
     /// checks and the dashboard).
     pub async fn completed_counts(&self, study_id: i64) -> Result<Vec<(StimulusId, i64)>, DbError> {
-        let rows = sqlx::query(
-            "SELECT s.stimulus_id, COUNT(r.id) FROM stimuli s
+        let sql = "SELECT s.stimulus_id, COUNT(r.id) FROM stimuli s
              LEFT JOIN trials t ON t.stimulus_id = s.stimulus_id AND t.kind = 'trial'
-                 AND t.participant_id IN (SELECT id FROM participants WHERE study_id = ?1 AND state = 'completed' AND excluded = 0)
+                 AND t.participant_id IN (SELECT id FROM participants WHERE study_id = $1 AND state = 'completed' AND NOT excluded)
              LEFT JOIN responses r ON r.participant_id = t.participant_id AND r.position = t.position
-             WHERE s.study_id = ?1 AND s.lead IS NULL GROUP BY s.stimulus_id ORDER BY s.stimulus_id",
-        )
-        .bind(study_id)
-        .fetch_all(&self.reader)
-        .await?;
-        rows.into_iter()
-            .map(|r| {
-                let id: &str = r.get(0);
-                Ok((stored(StimulusId::parse(id).ok(), "stimulus id", id)?, r.get(1)))
-            })
-            .collect()
+             WHERE s.study_id = $1 AND s.lead IS NULL GROUP BY s.stimulus_id ORDER BY s.stimulus_id";
+        let rows: Vec<(String, i64)> = on_backend!(self, b => sqlx::query_as(sql).bind(study_id).fetch_all(&b.reader).await?);
+        rows.into_iter().map(|(id, n)| Ok((stored(StimulusId::parse(&id).ok(), "stimulus id", &id)?, n))).collect()
     }
+}
+
+/// The content hash of a built set: the SHA-256 of its `manifest.json`, which holds the SHA-256
+/// of every media file.
+pub fn set_sha256(set_dir: &std::path::Path) -> Result<String, DbError> {
+    let manifest = set_dir.join("manifest.json");
+    let bytes = std::fs::read(&manifest).map_err(|e| DbError::NotFound(format!("{}: {e}", manifest.display())))?;
+    Ok(crate::stimuli::build::sha256_hex(&bytes))
+}
+
+/// Checks that `set_dir` holds the set a study was made with (`recorded`, its [`set_sha256`]):
+/// the manifest has that hash, and each of `files` (the study's media, relative to the set) has
+/// the SHA-256 its manifest row records. A copy that differs is a [`DbError::Conflict`] saying
+/// which file, so a server never shows other media than the study's.
+pub fn check_set_copy(set_dir: &std::path::Path, recorded: &str, files: &[&str]) -> Result<(), DbError> {
+    let differs = |what: String| DbError::Conflict(format!("this server's copy of the stimulus set in {} differs from the set the study was made with: {what}; copy the set again", set_dir.display()));
+    let here = set_sha256(set_dir)?;
+    if here != recorded {
+        return Err(differs(format!("its manifest.json has SHA-256 {here}, the study recorded {recorded}")));
+    }
+    let (_, rows) = set_manifest(set_dir)?;
+    for row in rows.iter().filter(|r| files.contains(&r.file.as_str())) {
+        let bytes = std::fs::read(set_dir.join(&row.file)).map_err(|e| differs(format!("{}: {e}", row.file)))?;
+        if crate::stimuli::build::sha256_hex(&bytes) != row.sha256 {
+            return Err(differs(format!("{} is not the file its manifest describes (SHA-256)", row.file)));
+        }
+    }
+    Ok(())
 }
 
 /// The rows of a built set's `manifest.json`, with the file's path for messages.
@@ -332,7 +359,7 @@ mod tests {
              INSERT INTO studies (id, slug, title, spec_toml, set_dir, status, created_at) VALUES (1, 'old', 'Old', '', 'set', 'paused', 0);
              INSERT INTO stimuli (study_id, stimulus_id, media, file, emotion) VALUES (1, 's01', 'image', 'media/s01.png', '');
              PRAGMA ignore_check_constraints = OFF;";
-        sqlx::raw_sql(rows).execute(&db.writer).await.expect("rows");
+        sqlx::raw_sql(rows).execute(&db.sqlite().writer).await.expect("rows");
         let status = db.study_by_slug("old").await.expect_err("an unknown status");
         assert!(matches!(&status, DbError::Internal(m) if m.contains("unknown study status \"paused\"")), "{status}");
         let id = db.study_stimuli(1).await.expect_err("an unknown stimulus id");

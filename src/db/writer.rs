@@ -23,12 +23,12 @@
 
 use std::collections::VecDeque;
 
-use sqlx::{SqliteConnection, SqlitePool};
+use sqlx::SqlitePool;
 use tokio::sync::{mpsc, oneshot};
 
 use super::DbError;
-use super::participants::{self, Demographics, SaveOutcome, SaveRequest, Saved, StartRequest, Started, StimulusLoads};
-use crate::study::SessionState;
+use super::participants::{Demographics, SaveOutcome, SaveRequest, StartRequest, Started, StimulusLoads};
+use super::steps::in_sqlite;
 
 /// Most requests stored in one transaction.
 pub(crate) const BATCH: usize = 128;
@@ -40,7 +40,7 @@ pub(crate) const QUEUE: usize = 4096;
 pub(crate) const ORDERED_PER_BATCH: usize = 8;
 
 /// A change to participations, as the writer task runs it.
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub(crate) enum Request {
     Start(StartRequest),
     Consent { token: String, consent_sha256: String },
@@ -163,7 +163,7 @@ pub(crate) async fn store(writer: &SqlitePool, loads: &mut StimulusLoads, reques
     sqlx::raw_sql("SAVEPOINT request").execute(&mut *tx).await?;
     let mut outcomes = Vec::with_capacity(requests.len());
     for request in requests {
-        let outcome = run(&mut tx, request, loads).await;
+        let outcome = in_sqlite::run(&mut tx, request, loads).await;
         let next = if outcome.is_ok() { "RELEASE request; SAVEPOINT request" } else { "ROLLBACK TO request" };
         sqlx::raw_sql(next).execute(&mut *tx).await?;
         outcomes.push(outcome);
@@ -172,43 +172,12 @@ pub(crate) async fn store(writer: &SqlitePool, loads: &mut StimulusLoads, reques
     Ok(outcomes)
 }
 
-async fn run(conn: &mut SqliteConnection, request: Request, loads: &mut StimulusLoads) -> Result<Written, DbError> {
-    match request {
-        Request::Start(start) => participants::start_in(conn, &start, loads).await.map(Written::Started),
-        Request::Consent { token, consent_sha256 } => participants::consent_in(conn, &token, &consent_sha256).await.map(|()| Written::Recorded),
-        Request::Demographics { token, demographics } => participants::demographics_in(conn, &token, &demographics).await.map(|()| Written::Recorded),
-        Request::Save(save) => {
-            let outcome = participants::save_in(conn, &save).await?;
-            if outcome.saved == Saved::Stored && outcome.state == SessionState::ScreenedOut {
-                loads.forget();
-            }
-            Ok(Written::Saved(outcome))
-        }
-        Request::Withdraw { token } => {
-            participants::withdraw_in(conn, &token).await?;
-            loads.forget();
-            Ok(Written::Recorded)
-        }
-        Request::Exclude { study_id, public_id, excluded, reason } => {
-            participants::exclude_in(conn, study_id, &public_id, excluded, &reason).await?;
-            loads.forget();
-            Ok(Written::Recorded)
-        }
-        Request::Reap { now } => {
-            let abandoned = participants::reap_in(conn, now).await?;
-            if abandoned > 0 {
-                loads.forget();
-            }
-            Ok(Written::Reaped(abandoned))
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::db::Db;
-    use crate::db::participants::SaveTiming;
+    use crate::db::participants::{SaveTiming, Saved};
+    use crate::study::SessionState;
     use crate::db::studies::StudyStimulus;
     use crate::study::{Answer, StudyDesign};
 
@@ -250,7 +219,7 @@ mod tests {
     }
 
     async fn main_trials_per_stimulus(db: &Db) -> Vec<i64> {
-        sqlx::query_scalar("SELECT COUNT(*) FROM trials WHERE kind = 'trial' GROUP BY stimulus_id").fetch_all(&db.reader).await.expect("counts")
+        sqlx::query_scalar("SELECT COUNT(*) FROM trials WHERE kind = 'trial' GROUP BY stimulus_id").fetch_all(&db.sqlite().reader).await.expect("counts")
     }
 
     #[tokio::test]
@@ -258,14 +227,14 @@ mod tests {
         let dir = tempfile::tempdir().expect("temp dir");
         let (db, id, design) = study(&dir, "", 4).await;
         let mut loads = StimulusLoads::default();
-        let outcomes = store(&db.writer, &mut loads, vec![start(id, &design, "w1"), start(id, &design, "w2"), start(id, &design, "w1")]).await.expect("batch");
+        let outcomes = store(&db.sqlite().writer, &mut loads, vec![start(id, &design, "w1"), start(id, &design, "w2"), start(id, &design, "w1")]).await.expect("batch");
         assert!(matches!(started(&outcomes[0]), Some(Started::New(_))));
         assert!(matches!(started(&outcomes[1]), Some(Started::New(_))));
         assert!(matches!(started(&outcomes[2]), Some(Started::Existing(_))));
         let Some(Started::Existing(existing)) = started(&outcomes[2]) else { panic!("not existing") };
         assert_eq!(*existing, super::super::token_sha256(&token(&outcomes[0])), "the first participation, by its token's hash");
         assert_ne!(token(&outcomes[1]), token(&outcomes[0]));
-        let participations: i64 = sqlx::query_scalar("SELECT COUNT(*) FROM participants").fetch_one(&db.reader).await.expect("count");
+        let participations: i64 = sqlx::query_scalar("SELECT COUNT(*) FROM participants").fetch_one(&db.sqlite().reader).await.expect("count");
         assert_eq!(participations, 2);
     }
 
@@ -276,7 +245,7 @@ mod tests {
         let mut loads = StimulusLoads::default();
         // Ten shares of three over ten stimuli: least loaded first gives every stimulus three.
         let starts = (0..10).map(|w| start(id, &design, &format!("w{w}"))).collect();
-        let outcomes = store(&db.writer, &mut loads, starts).await.expect("batch");
+        let outcomes = store(&db.sqlite().writer, &mut loads, starts).await.expect("batch");
         assert!(outcomes.iter().all(|o| matches!(started(o), Some(Started::New(_)))));
         assert_eq!(main_trials_per_stimulus(&db).await, vec![3; 10]);
     }
@@ -287,7 +256,7 @@ mod tests {
         let (db, id, design) = study(&dir, "trials_per_participant = 2\nratings_per_stimulus = 1", 4).await;
         let mut loads = StimulusLoads::default();
         let starts = (0..3).map(|w| start(id, &design, &format!("w{w}"))).collect();
-        let outcomes = store(&db.writer, &mut loads, starts).await.expect("batch");
+        let outcomes = store(&db.sqlite().writer, &mut loads, starts).await.expect("batch");
         assert!(matches!(started(&outcomes[1]), Some(Started::New(_))));
         assert!(matches!(started(&outcomes[2]), Some(Started::Full)), "{:?}", outcomes[2]);
         assert_eq!(main_trials_per_stimulus(&db).await, vec![1; 4]);
@@ -298,8 +267,8 @@ mod tests {
         let dir = tempfile::tempdir().expect("temp dir");
         let (db, id, design) = study(&dir, "trials_per_participant = 1\nratings_per_stimulus = 1", 2).await;
         let mut loads = StimulusLoads::default();
-        let first = store(&db.writer, &mut loads, vec![start(id, &design, "w1"), start(id, &design, "w2")]).await.expect("starts");
-        let outcomes = store(&db.writer, &mut loads, vec![start(id, &design, "w3"), Request::Withdraw { token: token(&first[0]) }, start(id, &design, "w3")]).await.expect("batch");
+        let first = store(&db.sqlite().writer, &mut loads, vec![start(id, &design, "w1"), start(id, &design, "w2")]).await.expect("starts");
+        let outcomes = store(&db.sqlite().writer, &mut loads, vec![start(id, &design, "w3"), Request::Withdraw { token: token(&first[0]) }, start(id, &design, "w3")]).await.expect("batch");
         assert!(matches!(started(&outcomes[0]), Some(Started::Full)), "{:?}", outcomes[0]);
         assert!(matches!(started(&outcomes[2]), Some(Started::New(_))), "{:?}", outcomes[2]);
     }
@@ -309,9 +278,9 @@ mod tests {
         let dir = tempfile::tempdir().expect("temp dir");
         let (db, id, design) = study(&dir, "trials_per_participant = 1\nratings_per_stimulus = 1\nreservation_minutes = 30", 2).await;
         let mut loads = StimulusLoads::default();
-        store(&db.writer, &mut loads, vec![start(id, &design, "w1"), start(id, &design, "w2")]).await.expect("starts");
+        store(&db.sqlite().writer, &mut loads, vec![start(id, &design, "w1"), start(id, &design, "w2")]).await.expect("starts");
         let later = crate::db::now_ms() + 31 * 60_000;
-        let outcomes = store(&db.writer, &mut loads, vec![start(id, &design, "w3"), Request::Reap { now: later }, start(id, &design, "w3")]).await.expect("batch");
+        let outcomes = store(&db.sqlite().writer, &mut loads, vec![start(id, &design, "w3"), Request::Reap { now: later }, start(id, &design, "w3")]).await.expect("batch");
         assert!(matches!(started(&outcomes[0]), Some(Started::Full)), "{:?}", outcomes[0]);
         assert!(matches!(outcomes[1], Ok(Written::Reaped(2))), "{:?}", outcomes[1]);
         assert!(matches!(started(&outcomes[2]), Some(Started::New(_))), "{:?}", outcomes[2]);
@@ -322,14 +291,14 @@ mod tests {
         let dir = tempfile::tempdir().expect("temp dir");
         let (db, id, design) = study(&dir, "trials_per_participant = 1\nratings_per_stimulus = 1", 2).await;
         let mut loads = StimulusLoads::default();
-        let first = store(&db.writer, &mut loads, vec![start(id, &design, "w1")]).await.expect("start");
-        let second = store(&db.writer, &mut loads, vec![start(id, &design, "w2"), start(id, &design, "w3")]).await.expect("starts");
+        let first = store(&db.sqlite().writer, &mut loads, vec![start(id, &design, "w1")]).await.expect("start");
+        let second = store(&db.sqlite().writer, &mut loads, vec![start(id, &design, "w2"), start(id, &design, "w3")]).await.expect("starts");
         assert!(matches!(started(&second[0]), Some(Started::New(_))), "the other stimulus: {:?}", second[0]);
         assert!(matches!(started(&second[1]), Some(Started::Full)), "{:?}", second[1]);
         assert_eq!(main_trials_per_stimulus(&db).await, vec![1, 1]);
         let public_id = db.participation(&token(&first[0])).await.expect("read").expect("participation").public_id;
         let exclude = Request::Exclude { study_id: id, public_id, excluded: true, reason: "test".into() };
-        let third = store(&db.writer, &mut loads, vec![exclude, start(id, &design, "w3")]).await.expect("batch");
+        let third = store(&db.sqlite().writer, &mut loads, vec![exclude, start(id, &design, "w3")]).await.expect("batch");
         assert!(matches!(third[0], Ok(Written::Recorded)), "{:?}", third[0]);
         assert!(matches!(started(&third[1]), Some(Started::New(_))), "the excluded one's stimulus is free: {:?}", third[1]);
     }
@@ -339,7 +308,7 @@ mod tests {
         let dir = tempfile::tempdir().expect("temp dir");
         let (db, id, design) = study(&dir, "", 2).await;
         let mut loads = StimulusLoads::default();
-        let first = store(&db.writer, &mut loads, vec![start(id, &design, "w1"), start(id, &design, "w2"), start(id, &design, "w3")]).await.expect("starts");
+        let first = store(&db.sqlite().writer, &mut loads, vec![start(id, &design, "w1"), start(id, &design, "w2"), start(id, &design, "w3")]).await.expect("starts");
         let (active, withdrawn, broken) = (token(&first[0]), token(&first[1]), token(&first[2]));
         db.withdraw(&withdrawn).await.expect("withdraw");
         // An SQL error part-way through a request: the consent of `broken` updates its row,
@@ -349,13 +318,13 @@ mod tests {
              BEGIN SELECT RAISE(ABORT, 'refused'); END",
             super::super::token_sha256(&broken)
         )))
-        .execute(&db.writer)
+        .execute(&db.sqlite().writer)
         .await
         .expect("trigger");
         let answer = Answer::emotion("fear");
         let save = |key: &str| Request::Save(SaveRequest::new(&active, 0, key, &answer, SaveTiming::default(), &design));
         let consent = |token: &str| Request::Consent { token: token.to_string(), consent_sha256: design.consent_sha256() };
-        let outcomes = store(&db.writer, &mut loads, vec![consent(&active), consent(&broken), consent(&withdrawn), save("k1"), save("k2"), consent(&"0".repeat(32)), save("k1")])
+        let outcomes = store(&db.sqlite().writer, &mut loads, vec![consent(&active), consent(&broken), consent(&withdrawn), save("k1"), save("k2"), consent(&"0".repeat(32)), save("k1")])
             .await
             .expect("batch");
         assert!(matches!(outcomes[0], Ok(Written::Recorded)));
@@ -383,7 +352,7 @@ mod tests {
         let check = "[attention]\nmax_failures = 1\nchecks = [{ instruction = \"choose fear\", measure = \"emotion\", value = \"fear\" }]";
         let (db, id, design) = study(&dir, check, 2).await;
         let mut loads = StimulusLoads::default();
-        let first = store(&db.writer, &mut loads, vec![start(id, &design, "careful"), start(id, &design, "careless")]).await.expect("starts");
+        let first = store(&db.sqlite().writer, &mut loads, vec![start(id, &design, "careful"), start(id, &design, "careless")]).await.expect("starts");
         let tokens = [token(&first[0]), token(&first[1])];
         for token in &tokens {
             db.give_consent(token, &design.consent_sha256()).await.expect("consent");
@@ -398,7 +367,7 @@ mod tests {
                 saves.push(Request::Save(SaveRequest::new(token, trial.position, &format!("{token}-{}", trial.position), &answer, SaveTiming::default(), &design)));
             }
         }
-        let outcomes = store(&db.writer, &mut loads, saves).await.expect("saves");
+        let outcomes = store(&db.sqlite().writer, &mut loads, saves).await.expect("saves");
         let states: Vec<_> = outcomes.iter().map(|o| match o {
             Ok(Written::Saved(saved)) => Ok(saved.state),
             other => Err(format!("{other:?}")),
@@ -408,7 +377,7 @@ mod tests {
         assert_eq!(&states[..3], &[Ok(SessionState::Active), Ok(SessionState::Active), Ok(SessionState::Completed)][..]);
         assert!(states[3..].contains(&Ok(SessionState::ScreenedOut)), "{states:?}");
         let events: Vec<(String, String)> = sqlx::query_as("SELECT to_state, reason FROM session_events WHERE from_state = 'active' ORDER BY id")
-            .fetch_all(&db.reader)
+            .fetch_all(&db.sqlite().reader)
             .await
             .expect("events");
         assert_eq!(events, vec![("completed".into(), "last trial saved".into()), ("screened_out".into(), "failed 1 attention checks".into())]);

@@ -199,9 +199,23 @@ impl AppState {
         self.load(row).await
     }
 
+    /// Loads a study for serving, after checking that this server's copy of its set is the one
+    /// the study was made with ([`crate::db::studies::check_set_copy`]; several servers may each
+    /// read the set from a copy of their own). A study whose copy differs is not served (and not
+    /// kept, so it is checked again at the next request).
     async fn load(&self, row: StudyRow) -> Result<Arc<LoadedStudy>, WebError> {
         let design = row.design()?;
-        let stimuli = self.db.study_stimuli(row.id).await?.into_iter().map(|s| (s.stimulus_id.clone(), s)).collect();
+        let stimuli: Vec<StudyStimulus> = self.db.study_stimuli(row.id).await?;
+        if let Some(recorded) = row.set_sha256.clone() {
+            let (set_dir, files) = (PathBuf::from(&row.set_dir), stimuli.iter().map(|s| s.file.clone()).collect::<Vec<_>>());
+            let checked = tokio::task::spawn_blocking(move || crate::db::studies::check_set_copy(&set_dir, &recorded, &files.iter().map(String::as_str).collect::<Vec<_>>())).await;
+            if let Err(e) = checked.map_err(|e| crate::db::DbError::Internal(e.to_string())).and_then(|c| c) {
+                tracing::error!(study = %row.slug, error = %e, "refusing to serve the study");
+                // The details (paths, file names) go to the log only: file names would tell participants the stimuli.
+                return Err(WebError::Unavailable("this server's copy of the study's stimulus set differs from the one the study was made with (the server's log says how)".into()));
+            }
+        }
+        let stimuli = stimuli.into_iter().map(|s| (s.stimulus_id.clone(), s)).collect();
         let loaded = Arc::new(LoadedStudy { set_dir: PathBuf::from(&row.set_dir), row, design, stimuli });
         if let Ok(mut map) = self.studies.write() {
             map.insert(loaded.row.slug.clone(), loaded.clone());

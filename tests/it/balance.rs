@@ -1,5 +1,7 @@
-//! Balanced assignment on a real SQLite file with concurrent participants, some abandoning.
+//! Balanced assignment with concurrent participants, some abandoning, on each backend (an
+//! SQLite file; a PostgreSQL database when there is a server, [`crate::backends`]).
 
+use crate::backends::{Backend, TestDb, backends};
 use facslab::db::Db;
 use facslab::db::participants::{SaveTiming, Started};
 use facslab::db::studies::StudyStimulus;
@@ -48,8 +50,16 @@ async fn participant(db: Db, design: StudyDesign, study: i64, worker: String, ab
 
 #[tokio::test(flavor = "multi_thread")]
 async fn balanced_assignment_ends_within_one_rating_of_the_target() {
+    for backend in backends() {
+        ends_within_one_rating_of_the_target(&backend).await;
+    }
+}
+
+async fn ends_within_one_rating_of_the_target(backend: &Backend) {
+    eprintln!("on {}", backend.name());
     let dir = tempfile::tempdir().unwrap();
-    let db = Db::open(&dir.path().join("balance.db")).await.unwrap();
+    let store = TestDb::new(backend, dir.path());
+    let db = Db::open(&store.url.parse::<facslab::db::DbUrl>().unwrap()).await.unwrap();
     let design = StudyDesign::from_toml(DESIGN).unwrap();
     let stimuli: Vec<StudyStimulus> = (0..10)
         .map(|i| StudyStimulus::still(facslab::stimuli::StimulusId::parse(&facslab::stimuli::stimulus_id(1, i)).unwrap()))
@@ -93,8 +103,16 @@ async fn balanced_assignment_ends_within_one_rating_of_the_target() {
 /// so the balance holds per entry and no stimulus shown beside a lead gets a trial of its own.
 #[tokio::test(flavor = "multi_thread")]
 async fn balanced_assignment_counts_an_entry_shown_together_once() {
+    for backend in backends() {
+        counts_an_entry_shown_together_once(&backend).await;
+    }
+}
+
+async fn counts_an_entry_shown_together_once(backend: &Backend) {
+    eprintln!("on {}", backend.name());
     let dir = tempfile::tempdir().unwrap();
-    let db = Db::open(&dir.path().join("entries.db")).await.unwrap();
+    let store = TestDb::new(backend, dir.path());
+    let db = Db::open(&store.url.parse::<facslab::db::DbUrl>().unwrap()).await.unwrap();
     let text = DESIGN.replace("task = \"emotion\"", "task = \"au_coding\"").replace("trials_per_participant = 3", "trials_per_participant = 2").replace("ratings_per_stimulus = 6", "ratings_per_stimulus = 4")
         + "[au_coding]\ntogether = true\n";
     let design = StudyDesign::from_toml(&text).unwrap();

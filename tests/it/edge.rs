@@ -1,6 +1,7 @@
 //! The study server's edge, tried as an attacker and as a participant would: each test tells
 //! one story against the real `facslab serve` process and its SQLite file.
 
+use crate::backends::{Backend, backends};
 use crate::server::*;
 
 /// An MTurk study over the tiny set.
@@ -70,7 +71,14 @@ async fn stored_answers(http: &reqwest::Client, server: &Server, slug: &str) -> 
 
 #[tokio::test(flavor = "multi_thread")]
 async fn edge_an_idempotency_key_reused_with_another_answer_gets_409_and_the_first_answer_stays() {
-    let (_lab, server, http) = emotion_lab("emo", "");
+    for backend in backends() {
+        a_reused_idempotency_key_gets_409(&backend).await;
+    }
+}
+
+async fn a_reused_idempotency_key_gets_409(backend: &Backend) {
+    eprintln!("on {}", backend.name());
+    let (_lab, server, http) = emotion_lab_on(backend, "emo", "");
     let token = start(&http, &server, "emo", &[]).await;
     consent_and_demographics(&http, &server, &token).await;
     let position = current_position(&http, &server, &token).await.unwrap();
@@ -93,7 +101,14 @@ async fn edge_an_idempotency_key_reused_with_another_answer_gets_409_and_the_fir
 
 #[tokio::test(flavor = "multi_thread")]
 async fn edge_demographics_are_written_once_and_a_later_post_never_wipes_them() {
-    let (_lab, server, http) = emotion_lab("emo", "");
+    for backend in backends() {
+        demographics_are_written_once(&backend).await;
+    }
+}
+
+async fn demographics_are_written_once(backend: &Backend) {
+    eprintln!("on {}", backend.name());
+    let (_lab, server, http) = emotion_lab_on(backend, "emo", "");
     let token = start(&http, &server, "emo", &[]).await;
     consent_and_demographics(&http, &server, &token).await;
     for later in [vec![], vec![("age", "71"), ("gender", "male")]] {

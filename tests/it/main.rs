@@ -2,6 +2,7 @@
 
 mod analyze;
 mod appearance;
+mod backends;
 mod balance;
 mod browser;
 mod cli;
@@ -10,6 +11,7 @@ mod edge;
 mod golden;
 mod psych_ds;
 mod render;
+mod scale;
 mod server;
 mod power;
 mod stimuli;

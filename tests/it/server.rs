@@ -1,11 +1,13 @@
-//! Helpers for the study-platform tests: a small built stimulus set, a study database with
-//! studies and an admin, and the real `facslab serve` process on a loopback port.
+//! Helpers for the study-platform tests: a small built stimulus set, a study database (SQLite
+//! or PostgreSQL, [`crate::backends`]) with studies and an admin, and the real `facslab serve`
+//! process on a loopback port.
 
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::sync::{Arc, Mutex};
 
+use crate::backends::{Backend, TestDb};
 use crate::cli::facslab_ok;
 
 /// Six emotion stills and one short video at 64×64 (fast to build).
@@ -47,8 +49,13 @@ believability = true
     )
 }
 
-/// A temporary lab: a stimulus set (the tiny one unless told) built in `dir/set`, the database `dir/lab.db` with an admin.
+/// A temporary lab: a stimulus set (the tiny one unless told) built in `dir/set`, a study
+/// database with an admin (`dir/lab.db`, or a PostgreSQL database of its own).
 pub struct Lab {
+    /// The database, as `--db` takes it.
+    pub db: String,
+    /// Declared before `dir`: a PostgreSQL database is dropped before the directory goes.
+    _store: TestDb,
     pub dir: tempfile::TempDir,
 }
 
@@ -57,19 +64,30 @@ impl Lab {
         Lab::with_set(TINY_SET)
     }
 
+    /// A lab with the tiny set on `backend`.
+    pub fn on(backend: &Backend) -> Lab {
+        Lab::with_set_on(TINY_SET, backend)
+    }
+
     /// A lab whose set `dir/set` is built from the set specification `spec`.
     pub fn with_set(spec: &str) -> Lab {
+        Lab::with_set_on(spec, &Backend::Sqlite)
+    }
+
+    /// A lab whose set is built from `spec`, its database on `backend`.
+    pub fn with_set_on(spec: &str, backend: &Backend) -> Lab {
         let dir = tempfile::tempdir().unwrap();
         std::fs::write(dir.path().join("set.toml"), spec).unwrap();
         facslab_ok(dir.path(), &["stimuli", "build", "set.toml", "-o", "set", "--jobs", "2"]);
+        let store = TestDb::new(backend, dir.path());
         let out = Command::new(env!("CARGO_BIN_EXE_facslab"))
-            .args(["admin", "create", "alice", "--db", "lab.db"])
+            .args(["admin", "create", "alice", "--db", &store.url])
             .env("FACSLAB_PASSWORD", ADMIN_PASSWORD)
             .current_dir(dir.path())
             .output()
             .unwrap();
         assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-        Lab { dir }
+        Lab { db: store.url.clone(), _store: store, dir }
     }
 
     pub fn path(&self) -> &Path {
@@ -80,7 +98,7 @@ impl Lab {
     pub fn study(&self, slug: &str, design: &str) {
         let file = format!("{slug}.toml");
         std::fs::write(self.path().join(&file), design).unwrap();
-        facslab_ok(self.path(), &["study", "create", &file, "--set", "set", "--db", "lab.db", "--open"]);
+        facslab_ok(self.path(), &["study", "create", &file, "--set", "set", "--db", &self.db, "--open"]);
     }
 
     /// The set's manifest rows as (stimulus_id, emotion, expression, file).
@@ -96,7 +114,7 @@ impl Lab {
     }
 
     pub fn serve(&self) -> Server {
-        Server::start(self.path().join("lab.db"))
+        Server::start(PathBuf::from(&self.db))
     }
 }
 
@@ -176,7 +194,12 @@ impl Drop for Server {
 
 /// A lab with one open emotion study `slug`, its server and a client.
 pub fn emotion_lab(slug: &str, extra: &str) -> (Lab, Server, reqwest::Client) {
-    let lab = Lab::new();
+    emotion_lab_on(&Backend::Sqlite, slug, extra)
+}
+
+/// [`emotion_lab`] with its database on `backend`.
+pub fn emotion_lab_on(backend: &Backend, slug: &str, extra: &str) -> (Lab, Server, reqwest::Client) {
+    let lab = Lab::on(backend);
     lab.study(slug, &emotion_design(slug, extra));
     let server = lab.serve();
     (lab, server, client())

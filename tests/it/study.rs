@@ -1,7 +1,9 @@
-//! The study platform over real HTTP: the `facslab serve` process, a real SQLite file.
+//! The study platform over real HTTP: the `facslab serve` process on a real database (an SQLite
+//! file, and a PostgreSQL database when there is a server: [`crate::backends`]).
 
 use std::collections::{BTreeMap, HashSet};
 
+use crate::backends::{Backend, backends};
 use crate::cli::facslab_ok;
 use crate::server::*;
 
@@ -22,7 +24,14 @@ async fn answer_all(http: &reqwest::Client, server: &Server, token: &str) -> Vec
 
 #[tokio::test(flavor = "multi_thread")]
 async fn study_participant_completes_and_admin_exports_the_long_csv() {
-    let (lab, server, http) = emotion_lab("emo", "[recruitment]\nplatform = \"prolific\"\ncompletion_code = \"C0DE42\"\n");
+    for backend in backends() {
+        participant_completes_and_admin_exports(&backend).await;
+    }
+}
+
+async fn participant_completes_and_admin_exports(backend: &Backend) {
+    eprintln!("on {}", backend.name());
+    let (lab, server, http) = emotion_lab_on(backend, "emo", "[recruitment]\nplatform = \"prolific\"\ncompletion_code = \"C0DE42\"\n");
 
     // A GET of the link creates nothing (link previews), and the link needs the worker id.
     let landing = http.get(server.url(&format!("/s/emo?PROLIFIC_PID={PID}&STUDY_ID=s&SESSION_ID=x"))).send().await.unwrap();
@@ -65,10 +74,10 @@ async fn study_participant_completes_and_admin_exports_the_long_csv() {
 
     // The CLI export gives the same bytes as the web export.
     drop(server);
-    facslab_ok(lab.path(), &["export", "--study", "emo", "--db", "lab.db", "-o", "cli.csv"]);
+    facslab_ok(lab.path(), &["export", "--study", "emo", "--db", &lab.db, "-o", "cli.csv"]);
     assert_eq!(std::fs::read_to_string(lab.path().join("cli.csv")).unwrap(), csv);
     // And the report straight from the database.
-    facslab_ok(lab.path(), &["report", "--study", "emo", "--db", "lab.db", "-o", "from-db"]);
+    facslab_ok(lab.path(), &["report", "--study", "emo", "--db", &lab.db, "-o", "from-db"]);
     assert_eq!(std::fs::read_to_string(lab.path().join("from-db.inputs/responses.csv")).unwrap(), csv);
     assert!(lab.path().join("from-db/report.html").is_file());
     // Analysed in memory from the database, the report is the one of the exported file.
@@ -78,7 +87,14 @@ async fn study_participant_completes_and_admin_exports_the_long_csv() {
 
 #[tokio::test(flavor = "multi_thread")]
 async fn study_survives_a_crash_and_repeated_requests() {
-    let (_lab, server, http) = emotion_lab("emo", "");
+    for backend in backends() {
+        survives_a_crash_and_repeated_requests(&backend).await;
+    }
+}
+
+async fn survives_a_crash_and_repeated_requests(backend: &Backend) {
+    eprintln!("on {}", backend.name());
+    let (_lab, server, http) = emotion_lab_on(backend, "emo", "");
     let token = start(&http, &server, "emo", &[]).await;
     consent_and_demographics(&http, &server, &token).await;
 
@@ -190,7 +206,14 @@ async fn study_pages_reveal_nothing_about_the_stimulus() {
 
 #[tokio::test(flavor = "multi_thread")]
 async fn study_bad_input_gets_a_clear_4xx_and_stores_nothing() {
-    let (lab, server, http) = emotion_lab("emo", "");
+    for backend in backends() {
+        bad_input_gets_a_clear_4xx(&backend).await;
+    }
+}
+
+async fn bad_input_gets_a_clear_4xx(backend: &Backend) {
+    eprintln!("on {}", backend.name());
+    let (lab, server, http) = emotion_lab_on(backend, "emo", "");
     let token = start(&http, &server, "emo", &[]).await;
     consent_and_demographics(&http, &server, &token).await;
     let position = current_position(&http, &server, &token).await.unwrap();
@@ -235,7 +258,7 @@ async fn study_bad_input_gets_a_clear_4xx_and_stores_nothing() {
     assert_eq!(wrong.status(), 401);
 
     // A token from the CLI opens the export API.
-    let out = facslab_ok(lab.path(), &["admin", "token", "alice", "--study", "emo", "--db", "lab.db"]);
+    let out = facslab_ok(lab.path(), &["admin", "token", "alice", "--study", "emo", "--db", &lab.db]);
     let api_token = String::from_utf8(out.stdout).unwrap().trim().to_string();
     let csv = http.get(server.url("/api/v1/studies/emo/responses.csv")).bearer_auth(&api_token).send().await.unwrap();
     assert_eq!(csv.status(), 200);
@@ -244,8 +267,15 @@ async fn study_bad_input_gets_a_clear_4xx_and_stores_nothing() {
 
 #[tokio::test(flavor = "multi_thread")]
 async fn study_attention_policy_screens_out_after_two_failures() {
+    for backend in backends() {
+        attention_policy_screens_out(&backend).await;
+    }
+}
+
+async fn attention_policy_screens_out(backend: &Backend) {
+    eprintln!("on {}", backend.name());
     let checks = "[attention]\nmax_failures = 2\nchecks = [{ instruction = \"Choose Surprise.\", measure = \"emotion\", value = \"surprise\" }, { instruction = \"Choose None.\", measure = \"emotion\", value = \"none\" }]\n[recruitment]\nplatform = \"prolific\"\ncompletion_code = \"OK\"\nscreened_out_code = \"NOPE\"\n";
-    let (_lab, server, http) = emotion_lab("att", checks);
+    let (_lab, server, http) = emotion_lab_on(backend, "att", checks);
     let token = start(&http, &server, "att", &[("PROLIFIC_PID", "0123456789abcdef01234567")]).await;
     consent_and_demographics(&http, &server, &token).await;
     let mut last = serde_json::Value::Null;
@@ -309,7 +339,14 @@ async fn entry_trial_page(http: &reqwest::Client, server: &Server, token: &str, 
 
 #[tokio::test(flavor = "multi_thread")]
 async fn study_exp1_coder_codes_each_au_once_from_its_video_and_stills() {
-    let lab = Lab::with_set(EXP1_SHAPE);
+    for backend in backends() {
+        exp1_coder_codes_each_au_once(&backend).await;
+    }
+}
+
+async fn exp1_coder_codes_each_au_once(backend: &Backend) {
+    eprintln!("on {}", backend.name());
+    let lab = Lab::with_set_on(EXP1_SHAPE, backend);
     // The published template as it is, over the small set.
     lab.study("exp1", include_str!("../../studies/exp1-coders.toml"));
     let server = lab.serve();
