@@ -400,7 +400,7 @@ fn render_entry(
         Content::Video { timeline, .. } => {
             let frames_dir = spec.png_frames.then(|| out.join("frames").join(id));
             let mut poster = None;
-            let bytes = render_video(timeline, settings, frames_dir.as_deref(), false, Some(shared), dither, &mut |frame, image| {
+            let bytes = render_video(timeline, settings, frames_dir.as_deref(), false, Some(shared), dither, None, &mut |frame, image| {
                 if frame == 0 {
                     poster = Some(image.encode_png());
                 }
@@ -437,7 +437,8 @@ pub enum VideoBuildError {
 /// entry of the build has rendered it), encodes the MP4, and optionally writes the PNG frames
 /// into `frames_dir` (through a temporary directory renamed into place). With `dither`, each
 /// frame is dithered before it is encoded; the PNG frames stay the engine's. `on_frame` sees
-/// each frame as encoded.
+/// each frame as encoded. With `sound`, the MP4 carries it as its sound track.
+#[allow(clippy::too_many_arguments)]
 pub fn render_video(
     timeline: &Timeline,
     settings: FrameSettings,
@@ -445,6 +446,7 @@ pub fn render_video(
     parallel: bool,
     shared: Option<&SharedFrames>,
     dither: Option<Dither>,
+    sound: Option<crate::engine::video::OpusTrack>,
     on_frame: &mut dyn FnMut(usize, &RgbImage),
 ) -> Result<Vec<u8>, VideoBuildError> {
     let catalog = Catalog::built_in();
@@ -456,7 +458,7 @@ pub fn render_video(
         let _ = std::fs::remove_dir_all(dir);
         std::fs::create_dir_all(dir).map_err(|e| VideoBuildError::Io(io(dir)(e)))?;
     }
-    let mut encoder = Mp4Encoder::new(settings.width, settings.height, timeline.fps)?;
+    let mut encoder = Mp4Encoder::with_sound(settings.width, settings.height, timeline.fps, sound)?;
     let expressions: Vec<crate::facs::Expression> =
         (0..timeline.frame_count()).map(|f| timeline.frame_expression(f, catalog)).collect::<Result<_, _>>()?;
     // Each distinct expression is rendered once: the apex is held, and a falling ramp passes
