@@ -79,13 +79,14 @@ pub fn wav_bytes(samples: &[i16], rate: u32) -> Vec<u8> {
     out
 }
 
-/// Root-mean-square loudness (full scale = 1) over the `1 / fps` window that starts at each
-/// frame's time, for `frames` frames (0 past the end of the sound).
+/// Root-mean-square loudness (full scale = 1) over the `1 / fps` window centred on each frame's
+/// time (the instant the frame shows), for `frames` frames (0 past the end of the sound).
 pub fn rms_per_frame(samples: &[i16], rate: u32, fps: u32, frames: usize) -> Vec<f64> {
     (0..frames)
         .map(|f| {
-            let start = (f as u64 * u64::from(rate) / u64::from(fps)) as usize;
-            let end = ((f as u64 + 1) * u64::from(rate) / u64::from(fps)) as usize;
+            let (rate, fps) = (u64::from(rate), u64::from(fps));
+            let start = ((2 * f as u64 * rate).saturating_sub(rate) / (2 * fps)) as usize;
+            let end = ((2 * f as u64 * rate + rate) / (2 * fps)) as usize;
             let window = samples.get(start.min(samples.len())..end.min(samples.len())).unwrap_or_default();
             if window.is_empty() {
                 return 0.0;

@@ -12,9 +12,12 @@
 //! a machine without eSpeak NG gets [`SpeechError::Missing`] with the install command before
 //! anything is written, instead of a binary that does not start.
 //!
-//! Invariants: same text and voice → the same samples and the same phone times (eSpeak NG has
-//! no randomness; every parameter is set on every call, so nothing carries over between calls).
-//! eSpeak keeps global state: calls are serialised by one process-wide lock.
+//! Invariants: same text and voice → the same samples and the same phone times. eSpeak NG has no
+//! randomness, but it carries state from one synthesis to the next (function statics such as the
+//! pitch flutter's phase; measured: the second "Hello there." of a process is 2 samples shorter
+//! and differs from sample 1,384 on). So this process loads and initialises eSpeak once and
+//! never synthesises: each synthesis runs in a forked child that starts from that same state,
+//! sets every parameter, and sends the samples and phones back through a pipe (Linux/Unix only).
 
 use std::cell::RefCell;
 use std::ffi::{CString, c_char, c_int, c_uint, c_void};
@@ -226,9 +229,18 @@ pub fn synthesize(text: &str, voice: &Voice) -> Result<Utterance, SpeechError> {
     let espeak = espeak.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
     let text = CString::new(text).map_err(|_| SpeechError::Text("the text contains a NUL character".into()))?;
     let name = CString::new(voice.name.as_str()).map_err(|_| SpeechError::Voice(voice.name.clone()))?;
+    let bytes = isolated(|| encode_run(synthesize_here(&espeak, &text, &name, voice)))?;
+    let collected = decode_run(&bytes).ok_or_else(|| SpeechError::Isolation("the synthesis process sent malformed data".into()))??;
+    Ok(utterance(collected, espeak.sample_rate))
+}
+
+/// One synthesis in this process. eSpeak keeps state from one synthesis to the next in
+/// function statics (the pitch flutter's phase, among others), which nothing resets: a second
+/// synthesis of the same text differs from the first. [`synthesize`] therefore runs each in a
+/// forked child of a process that never synthesised, so every run starts from the same state.
+fn synthesize_here(espeak: &Espeak, text: &CString, name: &CString, voice: &Voice) -> Result<Collected, SpeechError> {
     COLLECTED.with(|c| *c.borrow_mut() = Collected::default());
-    // SAFETY: the functions come from the loaded library; the strings outlive the calls; the
-    // lock serialises every use of eSpeak's global state.
+    // SAFETY: the functions come from the loaded library; the strings outlive the calls.
     let status = unsafe {
         if (espeak.set_voice)(name.as_ptr()) != 0 {
             return Err(SpeechError::Voice(voice.name.clone()));
@@ -243,7 +255,110 @@ pub fn synthesize(text: &str, voice: &Voice) -> Result<Utterance, SpeechError> {
     if status != 0 {
         return Err(SpeechError::Synthesis(status));
     }
-    Ok(utterance(collected, espeak.sample_rate))
+    Ok(collected)
+}
+
+/// A run's result as bytes: a tag (0 = samples and events follow, 1 = voice error, 2 = synthesis
+/// error with its code), then little-endian counts and values.
+fn encode_run(run: Result<Collected, SpeechError>) -> Vec<u8> {
+    let mut out = Vec::new();
+    match run {
+        Ok(collected) => {
+            out.push(0);
+            out.extend_from_slice(&(collected.samples.len() as u32).to_le_bytes());
+            collected.samples.iter().for_each(|s| out.extend_from_slice(&s.to_le_bytes()));
+            out.extend_from_slice(&(collected.events.len() as u32).to_le_bytes());
+            for (ms, name) in &collected.events {
+                out.extend_from_slice(&ms.to_le_bytes());
+                out.push(name.len().min(255) as u8);
+                out.extend_from_slice(&name.as_bytes()[..name.len().min(255)]);
+            }
+        }
+        Err(SpeechError::Synthesis(code)) => {
+            out.push(2);
+            out.extend_from_slice(&code.to_le_bytes());
+        }
+        Err(_) => out.push(1),
+    }
+    out
+}
+
+fn decode_run(bytes: &[u8]) -> Option<Result<Collected, SpeechError>> {
+    let mut at = 1;
+    let mut take = |n: usize| -> Option<&[u8]> {
+        let slice = bytes.get(at..at + n)?;
+        at += n;
+        Some(slice)
+    };
+    let u32_of = |b: &[u8]| u32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+    match bytes.first()? {
+        1 => return Some(Err(SpeechError::Voice(String::new()))),
+        2 => return Some(Err(SpeechError::Synthesis(u32_of(take(4)?) as i32))),
+        _ => {}
+    }
+    let count = u32_of(take(4)?) as usize;
+    let samples = take(count * 2)?.chunks_exact(2).map(|b| i16::from_le_bytes([b[0], b[1]])).collect();
+    let events = (0..u32_of(take(4)?))
+        .map(|_| {
+            let ms = u32_of(take(4)?);
+            let len = take(1)?[0] as usize;
+            Some((ms, String::from_utf8_lossy(take(len)?).into_owned()))
+        })
+        .collect::<Option<Vec<_>>>()?;
+    Some(Ok(Collected { samples, events }))
+}
+
+/// Runs `work` in a forked child and returns the bytes it produced. The child only calls
+/// eSpeak (already loaded and initialised by the parent), allocates and writes to a pipe, then
+/// leaves with `_exit`; glibc's `fork` keeps `malloc` usable in the child.
+fn isolated(work: impl FnOnce() -> Vec<u8>) -> Result<Vec<u8>, SpeechError> {
+    let fail = |what: &str| SpeechError::Isolation(format!("{what}: {}", std::io::Error::last_os_error()));
+    let mut fds = [0 as c_int; 2];
+    // SAFETY: plain POSIX calls on descriptors this function owns; the child never returns.
+    unsafe {
+        if libc::pipe(fds.as_mut_ptr()) != 0 {
+            return Err(fail("pipe"));
+        }
+        let pid = libc::fork();
+        if pid < 0 {
+            libc::close(fds[0]);
+            libc::close(fds[1]);
+            return Err(fail("fork"));
+        }
+        if pid == 0 {
+            libc::close(fds[0]);
+            let bytes = std::panic::catch_unwind(std::panic::AssertUnwindSafe(work)).unwrap_or_default();
+            let mut written = 0;
+            while written < bytes.len() {
+                let n = libc::write(fds[1], bytes[written..].as_ptr().cast(), bytes.len() - written);
+                if n <= 0 {
+                    libc::_exit(1);
+                }
+                written += n as usize;
+            }
+            libc::_exit(0);
+        }
+        libc::close(fds[1]);
+        let mut out = Vec::new();
+        let mut buffer = [0u8; 65536];
+        loop {
+            let n = libc::read(fds[0], buffer.as_mut_ptr().cast(), buffer.len());
+            if n < 0 && std::io::Error::last_os_error().kind() == std::io::ErrorKind::Interrupted {
+                continue;
+            }
+            if n <= 0 {
+                break;
+            }
+            out.extend_from_slice(&buffer[..n as usize]);
+        }
+        libc::close(fds[0]);
+        let mut status = 0;
+        libc::waitpid(pid, &mut status, 0);
+        if !(libc::WIFEXITED(status) && libc::WEXITSTATUS(status) == 0) {
+            return Err(SpeechError::Isolation(format!("the synthesis process failed (status {status})")));
+        }
+        Ok(out)
+    }
 }
 
 /// Phones from the events: each lasts until the next one starts; the last until the end.

@@ -48,6 +48,8 @@ pub enum SpeechError {
     Synthesis(i32),
     #[error("the speech lasts {0:.1} s; at most {MAX_SPEECH_S} s fit in one video (shorten the text)")]
     TooLong(f64),
+    #[error("speech synthesis process: {0}")]
+    Isolation(String),
     #[error("Opus encoder: {0}")]
     Opus(String),
 }

@@ -7,8 +7,8 @@
 //! The table is data (`stimuli/engine/visemes.toml`, compiled in; its header explains every
 //! field): phone classes with a target per AU and a dominance strength. Coarticulation follows
 //! the dominance model (Cohen & Massaro 1993): phone `i` has dominance
-//! `strength_i · exp(−d / τ)`, where `d` is the distance from `t` to the phone's core (its middle
-//! half) and `τ` is `ahead_s` before the phone (look-ahead) and `behind_s` after it (carry-over);
+//! `strength_i · exp(−d / τ)`, where `d` is the distance from `t` to the phone's core (all but its
+//! first and last tenth) and `τ` is `ahead_s` before the phone (look-ahead) and `behind_s` after it (carry-over);
 //! a channel's value is the dominance-weighted mean of the phones' targets, with a weak constant
 //! rest dominance so that the mouth closes where nobody speaks.
 //!
@@ -26,6 +26,8 @@ use crate::facs::AuCode;
 const TABLE: &str = include_str!("../../stimuli/engine/visemes.toml");
 /// The dominance of the mouth at rest, present at every time.
 const REST_DOMINANCE: f64 = 0.05;
+/// The core of a phone (full dominance) leaves out this fraction of its length at each end.
+const CORE_MARGIN: f64 = 0.1;
 /// Only phones within this many time constants of `t` are weighed (exp(−8) < 0.04 %).
 const REACH: f64 = 8.0;
 
@@ -135,8 +137,8 @@ impl VisemeTable {
         let reach = REACH * self.ahead_s.max(self.behind_s);
         for phone in phones.iter().filter(|p| p.end_s + reach >= t && p.start_s - reach <= t) {
             let class = self.class_of(&phone.symbol);
-            let quarter = (phone.end_s - phone.start_s) / 4.0;
-            let (core_start, core_end) = (phone.start_s + quarter, phone.end_s - quarter);
+            let margin = (phone.end_s - phone.start_s) * CORE_MARGIN;
+            let (core_start, core_end) = (phone.start_s + margin, phone.end_s - margin);
             let dominance = if t < core_start {
                 class.strength * (-(core_start - t) / self.ahead_s).exp()
             } else if t > core_end {

@@ -11,6 +11,7 @@ mod golden;
 mod psych_ds;
 mod render;
 mod server;
+mod speech;
 mod power;
 mod stimuli;
 mod study;
