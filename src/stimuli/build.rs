@@ -189,7 +189,7 @@ fn planned_row(spec: &SetSpec, entry: &Entry, id: &str, dither: &str) -> Manifes
     };
     match &entry.content {
         Content::Image(_) => ManifestRow { media: Media::Image, file: format!("media/{id}.png"), ..base },
-        Content::Video { timeline, timing } => {
+        Content::Video { timeline, timing, .. } => {
             let (ew, eh) = even_size(w, h);
             ManifestRow {
                 media: Media::Video,
@@ -397,10 +397,14 @@ fn render_entry(
             progress(1);
             Ok(sha256_hex(&bytes))
         }
-        Content::Video { timeline, .. } => {
+        Content::Video { timeline, speech, .. } => {
             let frames_dir = spec.png_frames.then(|| out.join("frames").join(id));
             let mut poster = None;
-            let bytes = render_video(timeline, settings, frames_dir.as_deref(), false, Some(shared), dither, None, &mut |frame, image| {
+            let sound = match speech {
+                Some(spoken) => Some(crate::speech::encode_sound(&spoken.samples, spoken.sample_rate).map_err(|e| fail(e.to_string()))?),
+                None => None,
+            };
+            let bytes = render_video(timeline, settings, frames_dir.as_deref(), false, Some(shared), dither, sound, &mut |frame, image| {
                 if frame == 0 {
                     poster = Some(image.encode_png());
                 }
@@ -412,7 +416,11 @@ fn render_entry(
             })?;
             write_atomic(&out.join("media").join(format!("{id}.mp4")), &bytes)?;
             write_atomic(&out.join("posters").join(format!("{id}.png")), &poster.expect("a video has a first frame"))?;
-            write_atomic(&out.join("ground_truth").join(format!("{id}.csv")), manifest::ground_truth_csv(timeline).as_bytes())?;
+            let truth = match speech {
+                Some(spoken) => manifest::speech_ground_truth_csv(timeline, &spoken.frames),
+                None => manifest::ground_truth_csv(timeline),
+            };
+            write_atomic(&out.join("ground_truth").join(format!("{id}.csv")), truth.as_bytes())?;
             write_atomic(&out.join("timelines").join(format!("{id}.json")), timeline.to_json().as_bytes())?;
             Ok(sha256_hex(&bytes))
         }

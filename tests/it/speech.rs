@@ -223,3 +223,35 @@ v.play().catch(e => { s.textContent = 'play failed ' + e; });
     browser.close().await;
     panic!("the speaking video did not play to the end with sound; last status of each try: {statuses:?}");
 }
+
+/// Acceptances 3 and 4 on the shipped Exp. 4 spec: ten speaking videos, the nine emotions and
+/// neutral at 100 %, the eight evaluation people, different sentences, about 8 s on average
+/// (the paper's 8.3 s), and each emotion's upper-face AUs in every frame's ground truth.
+#[test]
+fn speech_exp4_set_has_ten_speaking_emotions_with_the_upper_face_in_every_frame() {
+    if !speech_tools() {
+        return;
+    }
+    let spec = facslab::stimuli::SetSpec::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("stimuli/sets/exp4.toml")).unwrap();
+    assert_eq!(spec.entries.len(), 10);
+    let catalog = Catalog::built_in();
+    let (mut emotions, mut people, mut texts, mut seconds) = (Vec::new(), Vec::new(), Vec::new(), 0.0);
+    for entry in &spec.entries {
+        let facslab::stimuli::Content::Video { timeline, speech: Some(spoken), .. } = &entry.content else { panic!("{} does not speak", entry.origin) };
+        assert_eq!(entry.intensity, 1.0);
+        let truth = facslab::stimuli::manifest::speech_ground_truth_csv(timeline, &spoken.frames);
+        let header: Vec<&str> = truth.lines().next().unwrap().split(',').collect();
+        let prototype = EmotionTable::built_in().get(&entry.emotion).unwrap().expression.clone();
+        for a in prototype.activations().iter().filter(|a| catalog.get(a.au).unwrap().region == facslab::facs::Region::Upper) {
+            let column = header.iter().position(|h| *h == facslab::stimuli::manifest::ground_truth_column(a.au, a.side)).unwrap_or_else(|| panic!("{}: no AU{}", entry.emotion, a.au));
+            assert!(truth.lines().skip(1).all(|row| row.split(',').nth(column).unwrap().parse::<f64>().unwrap() > 0.9), "{}: AU{} missing in a frame", entry.emotion, a.au);
+        }
+        emotions.push(entry.emotion.clone());
+        people.push(entry.identity.clone());
+        texts.push(spoken.text.clone());
+        seconds += timeline.duration_s / 10.0;
+    }
+    let distinct = |v: &Vec<String>| v.iter().collect::<std::collections::BTreeSet<_>>().len();
+    assert_eq!((distinct(&emotions), distinct(&people), distinct(&texts)), (10, 8, 10));
+    assert!((7.5..=9.0).contains(&seconds), "the videos last {seconds} s on average");
+}
