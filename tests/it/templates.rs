@@ -130,6 +130,14 @@ async fn templates_exp4_serves_exactly_the_ten_speaking_videos() {
     assert!(seen.iter().all(|s| facts[s].0 == "video" && facts[s].2 == 100), "exp4 shows only the 100 % videos");
     assert_eq!(seen.iter().map(|s| facts[s].1.as_str()).collect::<BTreeSet<_>>().len(), 10);
     assert_eq!(rows[0].1, "local");
+    // Tables 12 and 13 from the platform's answers: every answer was "surprise", believability 0.
+    crate::cli::facslab_ok(lab.path(), &["report", "--study", "exp4", "--db", "lab.db", "-o", "report"]);
+    let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(lab.path().join("report/report.json")).unwrap()).unwrap();
+    let condition = &report["rating"]["conditions"][0];
+    assert_eq!(condition["key"], "video 100%", "{condition}");
+    assert_eq!(condition["confusion"]["counts"].as_array().map(Vec::len), Some(10), "Table 12 has a row per emotion: {}", condition["confusion"]);
+    assert_eq!(condition["scales"][0]["overall"]["mean"].as_f64(), Some(0.0), "Table 13: {}", condition["scales"][0]);
+    assert_eq!(condition["scales"][0]["overall"]["n"].as_u64(), Some(10), "Table 13: {}", condition["scales"][0]);
 }
 
 #[tokio::test(flavor = "multi_thread")]
