@@ -7,7 +7,7 @@
 //! The table is data (`stimuli/engine/visemes.toml`, compiled in; its header explains every
 //! field): phone classes with a target per AU and a dominance strength. Coarticulation follows
 //! the dominance model (Cohen & Massaro 1993): phone `i` has dominance
-//! `strength_i · exp(−d / τ)`, where `d` is the distance from `t` to the phone's core (all but its
+//! `strength_i · exp(−d / (τ · spread_i))`, where `d` is the distance from `t` to the phone's core (all but its
 //! first and last tenth) and `τ` is `ahead_s` before the phone (look-ahead) and `behind_s` after it (carry-over);
 //! a channel's value is the dominance-weighted mean of the phones' targets, with a weak constant
 //! rest dominance so that the mouth closes where nobody speaks.
@@ -52,7 +52,13 @@ struct RawClass {
     name: String,
     phones: Vec<String>,
     strength: f64,
+    #[serde(default = "one")]
+    spread: f64,
     aus: BTreeMap<String, f64>,
+}
+
+fn one() -> f64 {
+    1.0
 }
 
 /// One viseme class: its name, dominance and per-channel targets (in [`VisemeTable::channels`] order).
@@ -61,6 +67,9 @@ pub struct VisemeClass {
     pub name: String,
     pub phones: Vec<String>,
     pub strength: f64,
+    /// Multiplies `ahead_s` and `behind_s` for this class (below 1: a shape that is held only
+    /// close to its phone, such as the lip closure of p/b/m).
+    pub spread: f64,
     pub targets: Vec<f64>,
 }
 
@@ -103,11 +112,12 @@ impl VisemeTable {
         channels.sort();
         let mut classes = Vec::new();
         for class in raw.class {
-            if !(class.strength.is_finite() && class.strength > 0.0) || class.aus.values().any(|v| !(0.0..=1.0).contains(v)) {
-                return Err(VisemeTableError(format!("class {}: strength must be positive and targets in [0, 1]", class.name)));
+            let positive = |v: f64| v.is_finite() && v > 0.0;
+            if !positive(class.strength) || !positive(class.spread) || class.aus.values().any(|v| !(0.0..=1.0).contains(v)) {
+                return Err(VisemeTableError(format!("class {}: strength and spread must be positive and targets in [0, 1]", class.name)));
             }
             let targets = channels.iter().map(|au| class.aus.get(&au.0.to_string()).copied().unwrap_or(0.0)).collect();
-            classes.push(VisemeClass { name: class.name, phones: class.phones, strength: class.strength, targets });
+            classes.push(VisemeClass { name: class.name, phones: class.phones, strength: class.strength, spread: class.spread, targets });
         }
         let find = |name: &str| classes.iter().position(|c| c.name == name).ok_or_else(|| VisemeTableError(format!("no class named `{name}`")));
         let (pause, fallback) = (find(&raw.pause)?, find(&raw.fallback)?);
@@ -140,9 +150,9 @@ impl VisemeTable {
             let margin = (phone.end_s - phone.start_s) * CORE_MARGIN;
             let (core_start, core_end) = (phone.start_s + margin, phone.end_s - margin);
             let dominance = if t < core_start {
-                class.strength * (-(core_start - t) / self.ahead_s).exp()
+                class.strength * (-(core_start - t) / (self.ahead_s * class.spread)).exp()
             } else if t > core_end {
-                class.strength * (-(t - core_end) / self.behind_s).exp()
+                class.strength * (-(t - core_end) / (self.behind_s * class.spread)).exp()
             } else {
                 class.strength
             };

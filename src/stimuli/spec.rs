@@ -555,6 +555,22 @@ mod tests {
         spec(groups).unwrap_err().to_string()
     }
 
+    /// Speaking groups are checked before anything is synthesised (so these need no eSpeak NG).
+    #[test]
+    fn speaking_groups_refuse_stills_timing_and_bad_sentences() {
+        let speak = "[[group]]\nname = \"talk\"\nemotions = [\"anger\"]\nvideo_peaks = [1]\n";
+        let e = err(&format!("{speak}stills = [1]\n[group.speak]\nsentences = [\"Hi.\"]\n"));
+        assert!(e.contains("group 1 \"talk\"") && e.contains("remove stills, timing and cpt"), "{e}");
+        let e = err(&format!("{speak}[group.speak]\nsentences = []\n"));
+        assert!(e.contains("speak.sentences is empty"), "{e}");
+        let e = err(&format!("{speak}[group.speak]\nsentences = [\"  \"]\n"));
+        assert!(e.contains("empty"), "{e}");
+        let e = err(&format!("{speak}[group.speak]\nsentences = [\"Hi.\"]\nvoice = {{ rate_wpm = 20 }}\n"));
+        assert!(e.contains("rate 20"), "{e}");
+        let e = err(&format!("{speak}[group.speak]\nsentences = [\"Hi.\"]\nvoice = {{ name = \"en us; rm\" }}\n"));
+        assert!(e.contains("voice"), "{e}");
+    }
+
     #[test]
     fn the_seed_experiment_sets_expand_to_the_papers_counts() {
         let load = |name: &str| {
