@@ -230,7 +230,9 @@ pub fn synthesize(text: &str, voice: &Voice) -> Result<Utterance, SpeechError> {
     let text = CString::new(text).map_err(|_| SpeechError::Text("the text contains a NUL character".into()))?;
     let name = CString::new(voice.name.as_str()).map_err(|_| SpeechError::Voice(voice.name.clone()))?;
     let bytes = isolated(|| encode_run(synthesize_here(&espeak, &text, &name, voice)))?;
-    let collected = decode_run(&bytes).ok_or_else(|| SpeechError::Isolation("the synthesis process sent malformed data".into()))??;
+    let collected = decode_run(&bytes)
+        .ok_or_else(|| SpeechError::Isolation("the synthesis process sent malformed data".into()))?
+        .map_err(|e| if let SpeechError::Voice(_) = e { SpeechError::Voice(voice.name.clone()) } else { e })?;
     Ok(utterance(collected, espeak.sample_rate))
 }
 

@@ -95,6 +95,23 @@ fn speech_missing_espeak_is_reported_with_the_install_command_and_nothing_is_wri
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0, "files were written");
 }
 
+/// A voice eSpeak NG does not know is refused with its name; out-of-range rate and pitch too.
+#[test]
+fn speech_unknown_voices_and_ranges_are_named() {
+    if !speech_tools() {
+        return;
+    }
+    let unknown = Voice { name: "xx-nowhere".into(), ..Voice::default() };
+    let e = speech::espeak::synthesize("Hi.", &unknown).unwrap_err().to_string();
+    assert!(e.contains("`xx-nowhere`") && e.contains("espeak-ng --voices"), "{e}");
+    let dir = tempfile::tempdir().unwrap();
+    for (args, message) in [(["--rate", "20"], "rate 20"), (["--pitch", "101"], "pitch 101")] {
+        let out = crate::cli::facslab(dir.path(), &[&["speak", "Hi.", "-o", "x.mp4"][..], &args[..]].concat());
+        assert!(!out.status.success() && stderr(&out).contains(message), "{}", stderr(&out));
+    }
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+}
+
 /// The mouth opening of the posed mesh: the height of the lips at the midline (the lip
 /// vertices within 0.15 units of x = 0), in model units.
 fn mouth_opening(expression: &facslab::facs::Expression, identity: &facslab::engine::identity::Identity, lips: &[u32]) -> f64 {
