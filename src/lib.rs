@@ -13,6 +13,7 @@ pub mod facs;
 pub mod progress;
 pub mod report;
 pub mod seeded;
+pub mod speech;
 pub mod stimuli;
 pub mod study;
 pub mod studio;

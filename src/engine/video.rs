@@ -15,6 +15,10 @@
 //!   most of the loss being 4:2:0 chroma; quality mode with the same QP range gave 37.1 dB and
 //!   rate control off 35.4 dB.
 //! - **Determinism**: one single-threaded encoder per video; the same frames give the same bytes.
+//! - **Sound** (speaking faces, [`crate::speech`]): an optional Opus track ([`OpusTrack`], 48 kHz
+//!   mono, `dOps` pre-skip 312) is interleaved with the frames: after each frame, the packets that
+//!   start before the next frame. Opus because every browser plays it in MP4 (Debian's Chromium
+//!   has no AAC decoder).
 
 use openh264::OpenH264API;
 use openh264::encoder::{
@@ -93,8 +97,18 @@ pub fn rgb_to_i420_bt601(image: &RgbImage) -> Vec<u8> {
     out
 }
 
+/// An Opus sound track to mux beside the frames: 48-kHz mono packets, each `packet_s` long,
+/// the first starting at the first frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OpusTrack {
+    pub packets: Vec<Vec<u8>>,
+    pub packet_s: f64,
+}
+
 /// An MP4/H.264 file being written frame by frame, in memory.
 pub struct Mp4Encoder {
+    /// The sound track and how many of its packets are written.
+    sound: Option<(OpusTrack, usize)>,
     encoder: Encoder,
     muxer: muxide::api::Muxer<Vec<u8>>,
     fps: u32,
@@ -109,6 +123,11 @@ pub struct Mp4Encoder {
 impl Mp4Encoder {
     /// A new video of frames rendered at `width`×`height` (padded to even sides when encoded).
     pub fn new(width: u32, height: u32, fps: u32) -> Result<Mp4Encoder, VideoError> {
+        Mp4Encoder::with_sound(width, height, fps, None)
+    }
+
+    /// As [`Mp4Encoder::new`], with a sound track when `sound` is given.
+    pub fn with_sound(width: u32, height: u32, fps: u32, sound: Option<OpusTrack>) -> Result<Mp4Encoder, VideoError> {
         let (width, height) = even_size(width, height);
         let config = EncoderConfig::new()
             .usage_type(UsageType::CameraVideoRealTime)
@@ -122,12 +141,13 @@ impl Mp4Encoder {
             .num_threads(1)
             .vui(VuiConfig::bt601());
         let encoder = Encoder::with_api_config(OpenH264API::from_source(), config).map_err(|e| VideoError::Encoder(e.to_string()))?;
-        let muxer = muxide::api::MuxerBuilder::new(Vec::new())
-            .video(muxide::api::VideoCodec::H264, width, height, fps as f64)
-            .with_fast_start(true)
-            .build()
-            .map_err(|e| VideoError::Muxer(e.to_string()))?;
-        Ok(Mp4Encoder { encoder, muxer, fps, width, height, frames: 0, annexb: Vec::new(), last: None })
+        let mut builder = muxide::api::MuxerBuilder::new(Vec::new()).video(muxide::api::VideoCodec::H264, width, height, fps as f64).with_fast_start(true);
+        if sound.is_some() {
+            builder = builder.audio(muxide::api::AudioCodec::Opus, 48_000, 1);
+        }
+        let muxer = builder.build().map_err(|e| VideoError::Muxer(e.to_string()))?;
+        let sound = sound.map(|track| (track, 0));
+        Ok(Mp4Encoder { sound, encoder, muxer, fps, width, height, frames: 0, annexb: Vec::new(), last: None })
     }
 
     /// The encoded (even) size.
@@ -164,6 +184,20 @@ impl Mp4Encoder {
         let pts = self.frames as f64 / self.fps as f64;
         self.muxer.write_video(pts, &self.annexb, keyframe).map_err(|e| VideoError::Muxer(e.to_string()))?;
         self.frames += 1;
+        self.write_sound_until(self.frames as f64 / self.fps as f64)
+    }
+
+    /// Writes the sound packets that start before `until` seconds.
+    fn write_sound_until(&mut self, until: f64) -> Result<(), VideoError> {
+        let Some((track, written)) = &mut self.sound else { return Ok(()) };
+        while let Some(packet) = track.packets.get(*written) {
+            let pts = *written as f64 * track.packet_s;
+            if pts >= until {
+                break;
+            }
+            self.muxer.write_audio(pts, packet).map_err(|e| VideoError::Muxer(e.to_string()))?;
+            *written += 1;
+        }
         Ok(())
     }
 
@@ -172,6 +206,7 @@ impl Mp4Encoder {
         if self.frames == 0 {
             return Err(VideoError::NoFrames);
         }
+        self.write_sound_until(f64::INFINITY)?;
         self.muxer.finish_in_place().map_err(|e| VideoError::Muxer(e.to_string()))?;
         Ok(self.muxer.into_writer())
     }

@@ -189,7 +189,7 @@ fn planned_row(spec: &SetSpec, entry: &Entry, id: &str, dither: &str) -> Manifes
     };
     match &entry.content {
         Content::Image(_) => ManifestRow { media: Media::Image, file: format!("media/{id}.png"), ..base },
-        Content::Video { timeline, timing } => {
+        Content::Video { timeline, timing, .. } => {
             let (ew, eh) = even_size(w, h);
             ManifestRow {
                 media: Media::Video,
@@ -397,10 +397,14 @@ fn render_entry(
             progress(1);
             Ok(sha256_hex(&bytes))
         }
-        Content::Video { timeline, .. } => {
+        Content::Video { timeline, speech, .. } => {
             let frames_dir = spec.png_frames.then(|| out.join("frames").join(id));
             let mut poster = None;
-            let bytes = render_video(timeline, settings, frames_dir.as_deref(), false, Some(shared), dither, &mut |frame, image| {
+            let sound = match speech {
+                Some(spoken) => Some(crate::speech::encode_sound(&spoken.samples, spoken.sample_rate).map_err(|e| fail(e.to_string()))?),
+                None => None,
+            };
+            let bytes = render_video(timeline, settings, frames_dir.as_deref(), false, Some(shared), dither, sound, &mut |frame, image| {
                 if frame == 0 {
                     poster = Some(image.encode_png());
                 }
@@ -412,7 +416,11 @@ fn render_entry(
             })?;
             write_atomic(&out.join("media").join(format!("{id}.mp4")), &bytes)?;
             write_atomic(&out.join("posters").join(format!("{id}.png")), &poster.expect("a video has a first frame"))?;
-            write_atomic(&out.join("ground_truth").join(format!("{id}.csv")), manifest::ground_truth_csv(timeline).as_bytes())?;
+            let truth = match speech {
+                Some(spoken) => manifest::speech_ground_truth_csv(timeline, &spoken.frames),
+                None => manifest::ground_truth_csv(timeline),
+            };
+            write_atomic(&out.join("ground_truth").join(format!("{id}.csv")), truth.as_bytes())?;
             write_atomic(&out.join("timelines").join(format!("{id}.json")), timeline.to_json().as_bytes())?;
             Ok(sha256_hex(&bytes))
         }
@@ -437,7 +445,8 @@ pub enum VideoBuildError {
 /// entry of the build has rendered it), encodes the MP4, and optionally writes the PNG frames
 /// into `frames_dir` (through a temporary directory renamed into place). With `dither`, each
 /// frame is dithered before it is encoded; the PNG frames stay the engine's. `on_frame` sees
-/// each frame as encoded.
+/// each frame as encoded. With `sound`, the MP4 carries it as its sound track.
+#[allow(clippy::too_many_arguments)]
 pub fn render_video(
     timeline: &Timeline,
     settings: FrameSettings,
@@ -445,6 +454,7 @@ pub fn render_video(
     parallel: bool,
     shared: Option<&SharedFrames>,
     dither: Option<Dither>,
+    sound: Option<crate::engine::video::OpusTrack>,
     on_frame: &mut dyn FnMut(usize, &RgbImage),
 ) -> Result<Vec<u8>, VideoBuildError> {
     let catalog = Catalog::built_in();
@@ -456,7 +466,7 @@ pub fn render_video(
         let _ = std::fs::remove_dir_all(dir);
         std::fs::create_dir_all(dir).map_err(|e| VideoBuildError::Io(io(dir)(e)))?;
     }
-    let mut encoder = Mp4Encoder::new(settings.width, settings.height, timeline.fps)?;
+    let mut encoder = Mp4Encoder::with_sound(settings.width, settings.height, timeline.fps, sound)?;
     let expressions: Vec<crate::facs::Expression> =
         (0..timeline.frame_count()).map(|f| timeline.frame_expression(f, catalog)).collect::<Result<_, _>>()?;
     // Each distinct expression is rendered once: the apex is held, and a falling ramp passes

@@ -225,12 +225,25 @@ pub fn ground_truth_column(au: crate::facs::AuCode, side: Laterality) -> String 
 
 /// The per-frame ground truth of `timeline` as CSV (see the module docs).
 pub fn ground_truth_csv(timeline: &Timeline) -> String {
+    ground_truth_csv_with(timeline, None)
+}
+
+/// The ground truth of a speaking face: [`ground_truth_csv`] with two more columns, the phone
+/// sounding in each frame (IPA, empty in a pause) and its viseme class.
+pub fn speech_ground_truth_csv(timeline: &Timeline, speech: &[crate::speech::FrameSpeech]) -> String {
+    ground_truth_csv_with(timeline, Some(speech))
+}
+
+fn ground_truth_csv_with(timeline: &Timeline, speech: Option<&[crate::speech::FrameSpeech]>) -> String {
     let mut channels = timeline.channels();
     channels.sort();
     let mut out = String::from("frame,time_s");
     for &(au, side) in &channels {
         out.push(',');
         out.push_str(&ground_truth_column(au, side));
+    }
+    if speech.is_some() {
+        out.push_str(",phoneme,viseme");
     }
     out.push('\n');
     for frame in 0..timeline.frame_count() {
@@ -240,6 +253,10 @@ pub fn ground_truth_csv(timeline: &Timeline) -> String {
         for channel in &channels {
             let value = values.iter().find(|(c, _)| c == channel).map_or(0.0, |&(_, v)| v);
             out.push_str(&format!(",{value}"));
+        }
+        if let Some(speech) = speech {
+            let at = speech.get(frame);
+            out.push_str(&format!(",{},{}", at.map_or("", |s| s.phoneme.as_str()), at.map_or("", |s| s.viseme.as_str())));
         }
         out.push('\n');
     }

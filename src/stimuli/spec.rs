@@ -21,7 +21,14 @@
 //! stills = [0.3, 0.6, 0.9]        # one still per intensity
 //! timing = { onset_s = 1.0, apex_s = 1.0, offset_s = 1.0, ramp = "linear" }   # the default
 //! identity = "rotate"             # or "each" (every identity) or one identity id
+//! # speak = { sentences = ["…", …], voice = { name = "en-us", rate_wpm = 175, pitch = 50 } }
 //! ```
+//!
+//! A group with `speak` makes speaking videos (see [`crate::speech`]): the face holds the item's
+//! expression at each peak while it says a sentence, the sentences dealt out in an order shuffled
+//! by the set's seed; `timing` and `stills` do not apply. The speech is synthesised while the
+//! spec is read (eSpeak NG is needed then), so the frame count of every video is known before
+//! anything is rendered.
 //!
 //! Validation is complete before anything is rendered: [`SetSpec::from_toml`] returns either the
 //! full list of [`Entry`]s or an error naming the group and item at fault.
@@ -32,6 +39,7 @@ use crate::engine::identity::IdentityTable;
 use crate::engine::look::{Backdrop, Look};
 use crate::engine::timeline::{ClipTiming, Timeline};
 use crate::facs::{AppraisalTable, Catalog, EmotionTable, Expression};
+use crate::speech::Staging;
 
 /// The eight evaluation identities, in rotation order.
 pub const EIGHT: [&str; 8] = ["wm1", "wm2", "bm1", "bm2", "wf1", "wf2", "bf1", "bf2"];
@@ -102,6 +110,28 @@ struct RawGroup {
     timing: Option<ClipTiming>,
     #[serde(default)]
     identity: Option<String>,
+    #[serde(default)]
+    speak: Option<RawSpeak>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawSpeak {
+    sentences: Vec<String>,
+    #[serde(default)]
+    voice: crate::speech::Voice,
+}
+
+/// The sound and speech of a speaking video, made when the spec is read.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Spoken {
+    pub text: String,
+    pub voice: crate::speech::Voice,
+    /// The sound, exactly as long as the video.
+    pub samples: Vec<i16>,
+    pub sample_rate: u32,
+    /// The phone and viseme of every frame.
+    pub frames: Vec<crate::speech::FrameSpeech>,
 }
 
 /// What one stimulus shows.
@@ -109,8 +139,10 @@ struct RawGroup {
 pub enum Content {
     /// A still of this expression (already at its intensity).
     Image(Expression),
-    /// A video: the timeline to render, with its clip timing for the manifest.
-    Video { timeline: Timeline, timing: ClipTiming },
+    /// A video: the timeline to render, with its clip timing for the manifest, and for a
+    /// speaking video its sound and speech (the timing is then 0 s onset, the whole video as
+    /// apex, 0 s offset: the expression is held while the face speaks).
+    Video { timeline: Timeline, timing: ClipTiming, speech: Option<std::sync::Arc<Spoken>> },
 }
 
 /// One stimulus of a set, fully validated.
@@ -253,6 +285,8 @@ impl SetSpec {
                     .get(mode)
                     .map_err(|_| fail(&gname, format!("identity \"{mode}\" is not known (see `facslab identities`)")))?;
             }
+            let sentences = speak_sentences(group, &gname, raw.seed)?;
+            let mut speaking = 0usize;
             for (i, item) in items.iter().enumerate() {
                 let item_name = format!("{gname}, item {} ({})", i + 1, item.label);
                 let who: Vec<String> = match mode {
@@ -261,6 +295,18 @@ impl SetSpec {
                     one => vec![one.to_string()],
                 };
                 for identity in who {
+                    if let Some(speak) = &group.speak {
+                        let sentence = &sentences[speaking % sentences.len()];
+                        speaking += 1;
+                        let staging = Staging { fps, identity: &identity, size: (size[0], size[1]), seed: raw.seed ^ entries.len() as u64 };
+                        for &peak in &group.video_peaks {
+                            let entry = spoken_entry(item, &item_name, sentence, &speak.voice, peak, staging, entries.len(), catalog)?;
+                            frames += entry.frames();
+                            check_size(entries.len() + 1, frames)?;
+                            entries.push(entry);
+                        }
+                        continue;
+                    }
                     for &peak in &group.video_peaks {
                         let steps: Vec<Expression> = item.steps.iter().map(|s| s.scaled(peak)).collect();
                         let timeline = if is_sequence {
@@ -275,7 +321,7 @@ impl SetSpec {
                             index: entries.len(),
                             origin: format!("{item_name}, video at {peak}, {identity}"),
                             identity: identity.clone(),
-                            content: Content::Video { timeline, timing },
+                            content: Content::Video { timeline, timing, speech: None },
                             expression: union(&steps, catalog).map_err(|e| fail(&item_name, e.to_string()))?.to_string(),
                             emotion: item.emotion.clone(),
                             intensity: peak,
@@ -322,14 +368,56 @@ impl SetSpec {
 
     /// How many frames the set renders (videos count every frame; stills count one).
     pub fn frame_total(&self) -> usize {
-        self.entries
-            .iter()
-            .map(|e| match &e.content {
-                Content::Image(_) => 1,
-                Content::Video { timeline, .. } => timeline.frame_count(),
-            })
-            .sum()
+        self.entries.iter().map(Entry::frames).sum()
     }
+}
+
+impl Entry {
+    /// Frames this entry renders (a still counts one).
+    pub fn frames(&self) -> usize {
+        match &self.content {
+            Content::Image(_) => 1,
+            Content::Video { timeline, .. } => timeline.frame_count(),
+        }
+    }
+}
+
+/// A `speak` group's sentences in the order the set's seed deals them out (empty without
+/// `speak`); refuses speaking groups with stills, a timing, a CPT source or bad sentences.
+fn speak_sentences(group: &RawGroup, gname: &str, seed: u64) -> Result<Vec<String>, SpecError> {
+    let Some(speak) = &group.speak else { return Ok(Vec::new()) };
+    if !group.stills.is_empty() || group.timing.is_some() || group.cpt.is_some() {
+        return Err(fail(gname, "a speaking group makes videos of held expressions: remove stills, timing and cpt"));
+    }
+    if speak.sentences.is_empty() {
+        return Err(fail(gname, "speak.sentences is empty"));
+    }
+    for text in &speak.sentences {
+        crate::speech::check_text(text).map_err(|e| fail(gname, e.to_string()))?;
+    }
+    speak.voice.validate().map_err(|e| fail(gname, e.to_string()))?;
+    let mut sentences = speak.sentences.clone();
+    crate::seeded::SplitMix64(seed ^ 0x5EA4_5EED).shuffle(&mut sentences);
+    Ok(sentences)
+}
+
+/// One speaking video: `item`'s expression at `peak`, saying `sentence`.
+#[allow(clippy::too_many_arguments)]
+fn spoken_entry(item: &Item, item_name: &str, sentence: &str, voice: &crate::speech::Voice, peak: f64, staging: Staging, index: usize, catalog: &Catalog) -> Result<Entry, SpecError> {
+    let face = item.steps[0].scaled(peak);
+    let performance = crate::speech::speak(sentence, voice, &crate::speech::Face::Held(face.clone()), staging).map_err(|e| fail(item_name, e.to_string()))?;
+    performance.timeline.validate(catalog).map_err(|e| fail(item_name, e.to_string()))?;
+    let timing = ClipTiming { onset_s: 0.0, apex_s: performance.timeline.duration_s, offset_s: 0.0, ramp: Default::default() };
+    let spoken = Spoken { text: sentence.to_string(), voice: voice.clone(), samples: performance.samples, sample_rate: performance.sample_rate, frames: performance.frames };
+    Ok(Entry {
+        index,
+        origin: format!("{item_name}, speaking at {peak}, {}", staging.identity),
+        identity: staging.identity.to_string(),
+        content: Content::Video { timeline: performance.timeline, timing, speech: Some(std::sync::Arc::new(spoken)) },
+        expression: face.to_string(),
+        emotion: item.emotion.clone(),
+        intensity: peak,
+    })
 }
 
 /// Every AU of `steps`, each once (first appearance order, highest intensity; an AU shown on
@@ -465,6 +553,22 @@ mod tests {
 
     fn err(groups: &str) -> String {
         spec(groups).unwrap_err().to_string()
+    }
+
+    /// Speaking groups are checked before anything is synthesised (so these need no eSpeak NG).
+    #[test]
+    fn speaking_groups_refuse_stills_timing_and_bad_sentences() {
+        let speak = "[[group]]\nname = \"talk\"\nemotions = [\"anger\"]\nvideo_peaks = [1]\n";
+        let e = err(&format!("{speak}stills = [1]\n[group.speak]\nsentences = [\"Hi.\"]\n"));
+        assert!(e.contains("group 1 \"talk\"") && e.contains("remove stills, timing and cpt"), "{e}");
+        let e = err(&format!("{speak}[group.speak]\nsentences = []\n"));
+        assert!(e.contains("speak.sentences is empty"), "{e}");
+        let e = err(&format!("{speak}[group.speak]\nsentences = [\"  \"]\n"));
+        assert!(e.contains("empty"), "{e}");
+        let e = err(&format!("{speak}[group.speak]\nsentences = [\"Hi.\"]\nvoice = {{ rate_wpm = 20 }}\n"));
+        assert!(e.contains("rate 20"), "{e}");
+        let e = err(&format!("{speak}[group.speak]\nsentences = [\"Hi.\"]\nvoice = {{ name = \"en us; rm\" }}\n"));
+        assert!(e.contains("voice"), "{e}");
     }
 
     #[test]

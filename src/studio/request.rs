@@ -298,7 +298,7 @@ impl Job {
             }
             Job::Video(timeline, look) => {
                 let settings = FrameSettings { width: timeline.size[0], height: timeline.size[1], threads: Some(1), look };
-                let bytes = crate::stimuli::render_video(&timeline, settings, None, true, None, None, &mut |_, _| {})
+                let bytes = crate::stimuli::render_video(&timeline, settings, None, true, None, None, None, &mut |_, _| {})
                     .map_err(|e| RequestError::Render(e.to_string()))?;
                 Ok(Rendered { bytes, video: true })
             }

@@ -13,6 +13,7 @@ mod psych_ds;
 mod render;
 mod scale;
 mod server;
+mod speech;
 mod power;
 mod stimuli;
 mod study;

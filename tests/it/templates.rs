@@ -73,10 +73,9 @@ async fn wide(http: &reqwest::Client, server: &Server, slug: &str) -> Vec<(Strin
 const MTURK: [(&str, &str); 4] = [("workerId", "A1B2C3D4E5F6G7"), ("assignmentId", "3ABCDEFGHIJ"), ("hitId", "3HIT"), ("turkSubmitTo", "https://workersandbox.mturk.com")];
 
 #[tokio::test(flavor = "multi_thread")]
-async fn templates_exp3_and_exp4_reproduce_the_papers_groups_and_arms() {
+async fn templates_exp3_reproduces_the_papers_groups_and_arms() {
     let lab = Lab::with_set(&reduced_set("exp3", [485, 485]));
     lab.study("exp3", &shipped("studies/exp3-emotions.toml"));
-    lab.study("exp4", &shipped("studies/exp4-emotions-video.toml"));
     let (server, http, facts) = (lab.serve(), client(), facts(&lab));
     let answer = [("emotion", "surprise"), ("believability", "0")];
 
@@ -105,14 +104,40 @@ async fn templates_exp3_and_exp4_reproduce_the_papers_groups_and_arms() {
         assert_eq!((seen.len(), emotions.len()), (10, 10), "{pid}: one stimulus per emotion");
     }
 
-    // Exp. 4: every participant sees the ten videos at 100 %, one per emotion.
+}
+
+/// Exp. 4 on its own set (issue 17): every participant sees exactly the ten speaking videos,
+/// one per emotion at 100 %, each with its Opus sound track.
+#[tokio::test(flavor = "multi_thread")]
+async fn templates_exp4_serves_exactly_the_ten_speaking_videos() {
+    if !crate::speech::speech_tools() {
+        return;
+    }
+    let lab = Lab::with_set(&reduced_set("exp4", [485, 485]));
+    lab.study("exp4", &shipped("studies/exp4-emotions-video.toml"));
+    let (server, http, facts) = (lab.serve(), client(), facts(&lab));
+    assert_eq!(facts.len(), 10, "the Exp. 4 set has the ten speaking videos only");
+    for (_, _, _, file) in lab.manifest() {
+        let bytes = std::fs::read(lab.path().join("set").join(&file)).unwrap();
+        assert!(bytes.windows(4).any(|w| w == b"dOps"), "{file} has no Opus sound track");
+    }
+    let answer = [("emotion", "surprise"), ("believability", "0")];
     let local = start(&http, &server, "exp4", &[]).await;
     assert_eq!(walk(&http, &server, &local, &answer).await, 10);
     let rows = wide(&http, &server, "exp4").await;
     let seen = &rows[0].3;
+    assert_eq!(seen, &facts.keys().cloned().collect::<BTreeSet<_>>(), "exp4 shows exactly the set's ten videos");
     assert!(seen.iter().all(|s| facts[s].0 == "video" && facts[s].2 == 100), "exp4 shows only the 100 % videos");
     assert_eq!(seen.iter().map(|s| facts[s].1.as_str()).collect::<BTreeSet<_>>().len(), 10);
     assert_eq!(rows[0].1, "local");
+    // Tables 12 and 13 from the platform's answers: every answer was "surprise", believability 0.
+    crate::cli::facslab_ok(lab.path(), &["report", "--study", "exp4", "--db", "lab.db", "-o", "report"]);
+    let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(lab.path().join("report/report.json")).unwrap()).unwrap();
+    let condition = &report["rating"]["conditions"][0];
+    assert_eq!(condition["key"], "video 100%", "{condition}");
+    assert_eq!(condition["confusion"]["counts"].as_array().map(Vec::len), Some(10), "Table 12 has a row per emotion: {}", condition["confusion"]);
+    assert_eq!(condition["scales"][0]["overall"]["mean"].as_f64(), Some(0.0), "Table 13: {}", condition["scales"][0]);
+    assert_eq!(condition["scales"][0]["overall"]["n"].as_u64(), Some(10), "Table 13: {}", condition["scales"][0]);
 }
 
 #[tokio::test(flavor = "multi_thread")]
