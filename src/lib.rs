@@ -10,6 +10,7 @@ pub mod cli;
 pub mod db;
 pub mod engine;
 pub mod facs;
+pub mod laugh;
 pub mod progress;
 pub mod report;
 pub mod seeded;

@@ -1,0 +1,11 @@
+//! Laughs and smiles (seed 004): the thirteen laugh and smile types, the curves that animate
+//! them, and the pipeline that fits those curves to landmark tracks.
+//!
+//! In: a laugh type's table entry or a [`Curves`] file fitted from tracked landmarks.
+//! Out: an engine [`crate::engine::timeline::Timeline`] that any identity can play.
+//! Invariant: a curve set is per-frame AU intensities in [0, 1] at one frame rate; every
+//! consumer (render, `.anim` export, timeline export) reads it through [`Curves`].
+
+pub mod curves;
+
+pub use curves::{CurveTrack, Curves, CurvesError};
