@@ -1,43 +1,82 @@
 //! The face model: the vendored CC0 MakeHuman hm08 head extract (`stimuli/face/`, see its
-//! PROVENANCE.md), embedded in the binary so that rendering needs no files at run time.
+//! PROVENANCE.md), baked into the binary at build time (`build.rs`, formats in
+//! [`super::face_text`]) so that rendering needs no files and parses no text at run time.
 //!
-//! In: `head.obj` (parts as `o` blocks, triangles), sparse targets (`index dx dy dz`), per-vertex
-//! region weights (`index weight`) and the left/right mirror map. Out: [`FaceModel`] with rest
+//! In: the baked head (vertices, parts as triangle lists, mirror rows, sparse targets
+//! `index dx dy dz`, region weights `index weight`) and `groups.txt`. Out: [`FaceModel`] with rest
 //! positions, triangles per [`Part`], and lookups for targets and regions by name.
 //!
 //! Units are decimetres; +y is up, +z points out of the face, +x is the person's left.
-//! Invariant: everything here is read-only after loading; the same files give the same model.
+//! Invariant: everything here is read-only after loading; the same files give the same model
+//! (the numbers are parsed by the same code at build time as they were at run time before, so
+//! baking changed no render: `golden::golden_render_hashes`).
 
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, OnceLock};
 
 use glam::Vec3;
-use include_dir::{Dir, DirEntry, include_dir};
 
-static FACE_DIR: Dir<'static> = include_dir!("$CARGO_MANIFEST_DIR/stimuli/face");
+static FACE_BIN: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/face.bin"));
+const GROUPS: &str = include_str!("../../stimuli/face/groups.txt");
+const MAGIC: &[u8] = b"FACSLAB-FACE-1";
 
-/// Every embedded file's contents by its path under `stimuli/face` (`targets/…/x.target`),
-/// indexed once: `include_dir` finds a file by comparing paths entry by entry, which made
-/// loading the hundreds of targets a large part of start-up.
-fn embedded_files() -> &'static HashMap<&'static str, &'static [u8]> {
-    static FILES: OnceLock<HashMap<&'static str, &'static [u8]>> = OnceLock::new();
-    FILES.get_or_init(|| {
-        let mut files = HashMap::new();
-        let mut dirs = vec![&FACE_DIR];
-        while let Some(dir) = dirs.pop() {
-            for entry in dir.entries() {
-                match entry {
-                    DirEntry::Dir(sub) => dirs.push(sub),
-                    DirEntry::File(file) => {
-                        if let Some(path) = file.path().to_str() {
-                            files.insert(path, file.contents());
-                        }
-                    }
-                }
-            }
-        }
-        files
-    })
+/// A baked row file: its vertex indices and their values, `width` per row, as stored.
+#[derive(Debug, Clone, Copy)]
+struct BakedRows {
+    indices: &'static [u8],
+    values: &'static [u8],
+}
+
+impl BakedRows {
+    fn indices(self) -> impl Iterator<Item = u32> {
+        indices(self.indices)
+    }
+
+    fn values(self) -> impl Iterator<Item = f32> {
+        floats(self.values)
+    }
+}
+
+/// Walks the baked bytes in the order `build.rs` wrote them.
+struct Reader {
+    at: usize,
+}
+
+impl Reader {
+    fn take(&mut self, n: usize) -> Result<&'static [u8], AssetError> {
+        let bytes = FACE_BIN.get(self.at..self.at + n).ok_or_else(|| AssetError::Missing(format!("baked face model (truncated at byte {})", self.at)))?;
+        self.at += n;
+        Ok(bytes)
+    }
+
+    fn count(&mut self) -> Result<usize, AssetError> {
+        let b = self.take(4)?;
+        Ok(u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize)
+    }
+
+    fn name(&mut self) -> Result<&'static str, AssetError> {
+        let b = self.take(2)?;
+        let bytes = self.take(u16::from_le_bytes([b[0], b[1]]) as usize)?;
+        std::str::from_utf8(bytes).map_err(|_| AssetError::Missing("baked face model (a name is not UTF-8)".into()))
+    }
+
+    fn rows(&mut self, width: usize) -> Result<BakedRows, AssetError> {
+        let n = self.count()?;
+        Ok(BakedRows { indices: self.take(4 * n)?, values: self.take(4 * n * width)? })
+    }
+
+    fn named_rows(&mut self, width: usize) -> Result<HashMap<&'static str, BakedRows>, AssetError> {
+        let n = self.count()?;
+        (0..n).map(|_| Ok((self.name()?, self.rows(width)?))).collect()
+    }
+}
+
+fn floats(bytes: &[u8]) -> impl Iterator<Item = f32> + '_ {
+    bytes.chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+}
+
+fn indices(bytes: &[u8]) -> impl Iterator<Item = u32> + '_ {
+    bytes.chunks_exact(4).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
 }
 
 /// Problems reading the face model (only possible when the vendored files are damaged or a
@@ -127,6 +166,8 @@ pub struct FaceModel {
     pub parts: Vec<PartMesh>,
     /// For each vertex, its mirror partner across the midline (itself on the midline).
     pub mirror: Vec<u32>,
+    target_rows: HashMap<&'static str, BakedRows>,
+    region_rows: HashMap<&'static str, BakedRows>,
     targets: Mutex<HashMap<String, Arc<Target>>>,
 }
 
@@ -138,46 +179,50 @@ impl FaceModel {
     }
 
     fn load() -> Result<FaceModel, AssetError> {
-        let (rest, parts) = parse_obj(read("head.obj")?)?;
-        let mirror = parse_rows("mirror.txt", |_, fields| fields.first().map(|v| *v as u32))?;
-        let mut mirror_map: Vec<u32> = (0..rest.len() as u32).collect();
-        for (index, partner) in mirror {
-            if let Some(slot) = mirror_map.get_mut(index) {
-                *slot = partner;
+        let mut reader = Reader { at: 0 };
+        if reader.take(MAGIC.len())? != MAGIC {
+            return Err(AssetError::Missing("baked face model (wrong magic)".into()));
+        }
+        let n = reader.count()?;
+        let rest: Vec<Vec3> = floats(reader.take(12 * n)?).collect::<Vec<_>>().chunks_exact(3).map(Vec3::from_slice).collect();
+        let parts = read_parts(&mut reader)?;
+        let mirror_rows = reader.rows(1)?;
+        let mut mirror: Vec<u32> = (0..rest.len() as u32).collect();
+        for (index, partner) in mirror_rows.indices().zip(mirror_rows.values()) {
+            if let Some(slot) = mirror.get_mut(index as usize) {
+                *slot = partner as u32;
             }
         }
-        Ok(FaceModel { rest, parts, mirror: mirror_map, targets: Mutex::new(HashMap::new()) })
+        let target_rows = reader.named_rows(3)?;
+        let region_rows = reader.named_rows(1)?;
+        Ok(FaceModel { rest, parts, mirror, target_rows, region_rows, targets: Mutex::new(HashMap::new()) })
     }
 
     pub fn part(&self, part: Part) -> &PartMesh {
         &self.parts[part as usize]
     }
 
-    /// The morph target `group/name` (e.g. `faceunits/browInnerUp`), parsed on first use.
+    /// The morph target `group/name` (e.g. `faceunits/browInnerUp`), unpacked on first use.
     pub fn target(&self, name: &str) -> Result<Arc<Target>, AssetError> {
         let mut cache = self.targets.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
         if let Some(target) = cache.get(name) {
             return Ok(Arc::clone(target));
         }
-        let file = format!("targets/{name}.target");
-        let rows = parse_rows(&file, |_, fields| (fields.len() == 3).then(|| Vec3::new(fields[0], fields[1], fields[2])))?;
-        let target = Arc::new(Target {
-            indices: rows.iter().map(|(i, _)| *i as u32).collect(),
-            deltas: rows.into_iter().map(|(_, d)| d).collect(),
-        });
+        let rows = self.target_rows.get(name).ok_or_else(|| AssetError::Missing(format!("targets/{name}.target")))?;
+        let deltas: Vec<f32> = rows.values().collect();
+        let target = Arc::new(Target { indices: rows.indices().collect(), deltas: deltas.chunks_exact(3).map(Vec3::from_slice).collect() });
         cache.insert(name.to_string(), Arc::clone(&target));
         Ok(target)
     }
 
     /// Whether a target named `group/name` exists.
     pub fn has_target(&self, name: &str) -> bool {
-        embedded_files().contains_key(format!("targets/{name}.target").as_str())
+        self.target_rows.contains_key(name)
     }
 
     /// The vertex indices of the group `name` in `groups.txt` (e.g. `neck_cut_loop`, in order).
     pub fn group(&self, name: &str) -> Result<Vec<u32>, AssetError> {
-        let text = read("groups.txt")?;
-        let (n, line) = text
+        let (n, line) = GROUPS
             .lines()
             .enumerate()
             .find(|(_, line)| line.split_once(':').is_some_and(|(key, _)| key.trim() == name))
@@ -196,10 +241,10 @@ impl FaceModel {
 
     /// Dense per-vertex weights of the region `name` (`lips`, `bone-jaw`, …), 0 where unlisted.
     pub fn region(&self, name: &str) -> Result<Vec<f32>, AssetError> {
-        let rows = parse_rows(&format!("regions/{name}.txt"), |_, fields| fields.first().copied())?;
+        let rows = self.region_rows.get(name).ok_or_else(|| AssetError::Missing(format!("regions/{name}.txt")))?;
         let mut weights = vec![0.0; self.rest.len()];
-        for (index, weight) in rows {
-            if let Some(slot) = weights.get_mut(index) {
+        for (index, weight) in rows.indices().zip(rows.values()) {
+            if let Some(slot) = weights.get_mut(index as usize) {
                 *slot = weight;
             }
         }
@@ -207,70 +252,27 @@ impl FaceModel {
     }
 }
 
-fn read(file: &str) -> Result<&'static str, AssetError> {
-    embedded_files().get(file).and_then(|bytes| std::str::from_utf8(bytes).ok()).ok_or_else(|| AssetError::Missing(file.to_string()))
-}
-
-/// Reads `index value…` rows; `convert` turns the values after the index into a row value.
-fn parse_rows<T>(file: &str, convert: impl Fn(usize, &[f32]) -> Option<T>) -> Result<Vec<(usize, T)>, AssetError> {
-    let text = read(file)?;
-    let mut rows = Vec::new();
-    for (n, line) in text.lines().enumerate() {
-        let line = line.trim();
-        if line.is_empty() || line.starts_with('#') {
-            continue;
-        }
-        let malformed = |message: &str| AssetError::Malformed { file: file.to_string(), line: n + 1, message: message.to_string() };
-        let mut fields = line.split_whitespace();
-        let index: usize = fields.next().and_then(|f| f.parse().ok()).ok_or_else(|| malformed("expected a vertex index"))?;
-        let values: Vec<f32> = fields.map(str::parse).collect::<Result<_, _>>().map_err(|_| malformed("expected numbers"))?;
-        let value = convert(index, &values).ok_or_else(|| malformed("wrong number of values"))?;
-        rows.push((index, value));
-    }
-    Ok(rows)
-}
-
-fn parse_obj(text: &str) -> Result<(Vec<Vec3>, Vec<PartMesh>), AssetError> {
-    let mut positions = Vec::new();
-    let mut parts: Vec<PartMesh> = Vec::new();
-    for (n, line) in text.lines().enumerate() {
-        let malformed = |message: String| AssetError::Malformed { file: "head.obj".into(), line: n + 1, message };
-        let mut fields = line.split_whitespace();
-        match fields.next() {
-            Some("v") => {
-                let xyz: Vec<f32> = fields.map(str::parse).collect::<Result<_, _>>().map_err(|e| malformed(format!("{e}")))?;
-                let [x, y, z] = xyz[..] else { return Err(malformed("a vertex needs three coordinates".into())) };
-                positions.push(Vec3::new(x, y, z));
-            }
-            Some("o") => {
-                let name = fields.next().unwrap_or_default();
-                let part = Part::from_obj_name(name).ok_or_else(|| malformed(format!("unknown part {name}")))?;
-                parts.push(PartMesh { part, vertices: 0..0, triangles: Vec::new() });
-            }
-            Some("f") => {
-                let corners: Vec<u32> = fields
-                    .map(|f| f.split('/').next().and_then(|v| v.parse::<u32>().ok()).map(|v| v - 1))
-                    .collect::<Option<_>>()
-                    .ok_or_else(|| malformed("bad face".into()))?;
-                let [a, b, c] = corners[..] else { return Err(malformed("faces must be triangles".into())) };
-                let part = parts.last_mut().ok_or_else(|| malformed("face before any part".into()))?;
-                part.triangles.push([a, b, c]);
-            }
-            _ => {}
-        }
-    }
-    // Each part's vertices are one contiguous block: the span of its triangles' corners.
-    for part in &mut parts {
-        let corners = part.triangles.iter().flatten();
-        let start = corners.clone().min().copied().unwrap_or(0);
-        let end = corners.max().map_or(0, |m| m + 1);
-        part.vertices = start..end;
+/// The parts, each's vertices the contiguous span of its triangles' corners, in [`Part`] order.
+fn read_parts(reader: &mut Reader) -> Result<Vec<PartMesh>, AssetError> {
+    let malformed = |message: String| AssetError::Malformed { file: "head.obj".into(), line: 0, message };
+    let mut parts = Vec::new();
+    for _ in 0..reader.count()? {
+        let name = reader.name()?;
+        let part = Part::from_obj_name(name).ok_or_else(|| malformed(format!("unknown part {name}")))?;
+        let corners: Vec<u32> = {
+            let n = reader.count()?;
+            indices(reader.take(12 * n)?)
+        }.collect();
+        let triangles: Vec<[u32; 3]> = corners.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+        let start = corners.iter().min().copied().unwrap_or(0);
+        let end = corners.iter().max().map_or(0, |m| m + 1);
+        parts.push(PartMesh { part, vertices: start..end, triangles });
     }
     parts.sort_by_key(|p| p.part);
     if parts.iter().map(|p| p.part).ne(Part::ALL) {
-        return Err(AssetError::Malformed { file: "head.obj".into(), line: 0, message: "expected one block per part".into() });
+        return Err(malformed("expected one block per part".into()));
     }
-    Ok((positions, parts))
+    Ok(parts)
 }
 
 #[cfg(test)]

@@ -12,6 +12,7 @@
 pub mod asset;
 pub mod body;
 pub mod camera;
+pub mod face_text;
 pub mod hair;
 pub mod identity;
 pub mod image;
