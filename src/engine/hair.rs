@@ -59,7 +59,26 @@ pub struct HairModel {
     root_follow: Vec<f32>,
     /// The centre of the skull (of [`HEAD_CENTRE`]) for this person.
     skull_centre: Vec3,
+    /// Per row of vertices (`2k`, `2k + 1`): the strand point, in the head map's space, and the
+    /// card's half-width there, so that a turned head's cards can face the camera again.
+    rows: Vec<CardRow>,
+    /// The head map the cards were laid along, and the shift from its space to the person's.
+    head: HeadMap,
+    offset: Vec3,
 }
+
+/// One row of a card: where the strand passes, how wide the card is, and whether it lies
+/// along the scalp near the head (bun cards do not).
+#[derive(Clone, Copy)]
+struct CardRow {
+    point: Vec3,
+    half: f32,
+    on_head: bool,
+}
+
+/// How far (decimetres) the camera may move in the head's frame before the cards are turned
+/// to face it again: a hundredth of a millimetre, far below a visible change.
+const REFACE_BEYOND: f32 = 1e-4;
 
 /// The hair cards of one frame.
 pub struct Hair {
@@ -329,7 +348,6 @@ impl HairModel {
         // the hair with the eyes where the base mesh has them, then move it back.
         let offset = eye_midpoint(model, neutral) - eye_midpoint(model, &model.rest);
         let aligned: Vec<Vec3> = neutral[..skin_end].iter().map(|&p| p - offset).collect();
-        let head = HeadMap::new(&aligned);
         let roots = sample_roots(model, identity, &aligned, &shape);
         let mut hair = HairModel {
             positions: Vec::new(),
@@ -342,10 +360,13 @@ impl HairModel {
             root_vertex: Vec::new(),
             root_follow: Vec::new(),
             skull_centre: HEAD_CENTRE + offset,
+            rows: Vec::new(),
+            head: HeadMap::new(&aligned),
+            offset,
         };
         for (n, root) in roots.iter().enumerate() {
-            let Some(points) = grow(root, n as u32, identity, &shape, &head) else { continue };
-            hair.add_card(&points, root.vertex, shape.width * (0.7 + 0.6 * hash01(n as u32, 7, 1)), Some(&head));
+            let Some(points) = grow(root, n as u32, identity, &shape, &hair.head) else { continue };
+            hair.add_card(&points, root.vertex, shape.width * (0.7 + 0.6 * hash01(n as u32, 7, 1)), true);
             hair.strand_tone.push(0.8 + 0.4 * hash01(n as u32, 8, 2));
             hair.strand_grey.push(greying(identity.hair_grey, n as u32));
         }
@@ -361,7 +382,7 @@ impl HairModel {
     /// Appends one strand's card: two vertices per point, tapering to the tip. A card turns its
     /// face to the camera, except that near the `head` it lies along the scalp (never across
     /// it, into the head).
-    fn add_card(&mut self, points: &[Vec3], root_vertex: u32, width: f32, head: Option<&HeadMap>) {
+    fn add_card(&mut self, points: &[Vec3], root_vertex: u32, width: f32, on_head: bool) {
         let base = self.positions.len() as u32;
         let last = points.len() - 1;
         let mut previous = Vec3::NEG_Y;
@@ -372,12 +393,12 @@ impl HairModel {
             let back = if k > 0 { p - points[k - 1] } else { Vec3::ZERO };
             let tangent = forward.try_normalize().or(back.try_normalize()).unwrap_or(previous);
             previous = tangent;
-            let to_eye = (VIEW_FROM - p).normalize();
-            let side = head.map_or_else(|| tangent.cross(to_eye).normalize_or(Vec3::X), |head| head.card_side(p, tangent, to_eye));
             let t = k as f32 / last as f32;
-            let half = width * (1.0 - 0.5 * t * t);
+            let row = CardRow { point: p, half: width * (1.0 - 0.5 * t * t), on_head };
+            let across = self.across(row, tangent, VIEW_FROM);
+            self.rows.push(row);
             for (s, u) in [(-1.0, 0.0), (1.0, 1.0)] {
-                self.positions.push(p + side * (half * s));
+                self.positions.push(p + across * s);
                 self.tangents.push(tangent);
                 self.uvs.push(Vec2::new(u, t));
                 self.root_vertex.push(root_vertex);
@@ -389,6 +410,29 @@ impl HairModel {
             self.triangles.push([a, c, d]);
             self.triangles.push([a, d, b]);
         }
+    }
+
+    /// Half the card's width across `row`, turned to face `eye` (both in the head map's space).
+    fn across(&self, row: CardRow, tangent: Vec3, eye: Vec3) -> Vec3 {
+        let to_eye = (eye - row.point).normalize();
+        let side = if row.on_head { self.head.card_side(row.point, tangent, to_eye) } else { tangent.cross(to_eye).normalize_or(Vec3::X) };
+        side * row.half
+    }
+
+    /// The cards in the neutral head's space, turned to face a camera at `eye` (the person's
+    /// space of the neutral head): as grown when the eye is where they were grown to face.
+    fn facing(&self, eye: Vec3) -> std::borrow::Cow<'_, [Vec3]> {
+        let eye = eye - self.offset;
+        if eye.distance(VIEW_FROM) <= REFACE_BEYOND {
+            return std::borrow::Cow::Borrowed(&self.positions);
+        }
+        let mut positions = Vec::with_capacity(self.positions.len());
+        for (k, &row) in self.rows.iter().enumerate() {
+            let across = self.across(row, self.tangents[2 * k], eye);
+            let point = row.point + self.offset;
+            positions.extend([point - across, point + across]);
+        }
+        std::borrow::Cow::Owned(positions)
     }
 
     /// A bun: strands wound around a ball at `centre`, as cards of the same length as the others.
@@ -408,7 +452,7 @@ impl HairModel {
                     ball + (u * a.cos() + v * a.sin()) * r
                 })
                 .collect();
-            self.add_card(&points, root_vertex, shape.width * 1.2, None);
+            self.add_card(&points, root_vertex, shape.width * 1.2, false);
             self.strand_tone.push(0.8 + 0.4 * hash01(n, 15, 9));
             self.strand_grey.push(greying(grey, n));
         }
@@ -429,20 +473,12 @@ impl HairModel {
     /// The cards of one frame: moved with the head's rigid motion (from three scalp points),
     /// and near each root with the root's own movement.
     pub fn posed(self: &Arc<HairModel>, model: &FaceModel, posed: &Posed) -> Hair {
-        let [top, left, right] = anchor_vertices(model);
-        let frame = |p: &[Vec3]| {
-            let (t, l, r) = (p[top as usize], p[left as usize], p[right as usize]);
-            let origin = (t + l + r) / 3.0;
-            let e1 = (l - r).normalize();
-            let e2 = (t - origin - e1 * (t - origin).dot(e1)).normalize();
-            (origin, Mat3::from_cols(e1, e2, e1.cross(e2)))
-        };
-        let (o0, f0) = frame(&posed.neutral);
-        let (o1, f1) = frame(&posed.positions);
-        let rotation = f1 * f0.transpose();
+        let (o0, o1, rotation) = head_motion(model, posed);
         let moved = |p: Vec3| o1 + rotation * (p - o0);
-        let positions = self
-            .positions
+        // The camera, seen from the neutral head: the cards turn to face it there.
+        let eye = o0 + rotation.transpose() * (VIEW_FROM + self.offset - o1);
+        let facing = self.facing(eye);
+        let positions = facing
             .iter()
             .zip(self.root_vertex.iter().zip(&self.root_follow))
             .map(|(&p, (&v, &follow))| {
@@ -459,6 +495,22 @@ impl HairModel {
         let skull = skull_ball(moved(self.skull_centre), &posed.positions[..model.part(Part::Skin).vertices.end as usize]);
         Hair { positions, tangents, model: Arc::clone(self), skull }
     }
+}
+
+/// The head's rigid motion from the neutral pose, from three scalp points: `p` moves to
+/// `o1 + rotation · (p − o0)`.
+fn head_motion(model: &FaceModel, posed: &Posed) -> (Vec3, Vec3, Mat3) {
+    let [top, left, right] = anchor_vertices(model);
+    let frame = |p: &[Vec3]| {
+        let (t, l, r) = (p[top as usize], p[left as usize], p[right as usize]);
+        let origin = (t + l + r) / 3.0;
+        let e1 = (l - r).normalize();
+        let e2 = (t - origin - e1 * (t - origin).dot(e1)).normalize();
+        (origin, Mat3::from_cols(e1, e2, e1.cross(e2)))
+    };
+    let (o0, f0) = frame(&posed.neutral);
+    let (o1, f1) = frame(&posed.positions);
+    (o0, o1, f1 * f0.transpose())
 }
 
 /// Share of the skin's nearest distance from the skull centre taken as the ball's radius (a
@@ -671,6 +723,36 @@ mod tests {
             let inside = grown.iter().filter(|&&p| (p - HEAD_CENTRE).length() < head.surface(p) - 0.03).count();
             assert!(inside * 100 < grown.len(), "{id}: {inside} of {} card vertices inside the head", grown.len());
         }
+    }
+
+    #[test]
+    fn a_turned_heads_cards_turn_to_face_the_camera() {
+        let model = FaceModel::embedded();
+        let identity = IdentityTable::built_in().get("wf1").unwrap().clone();
+        let expression = crate::facs::Catalog::built_in().parse("51E+53C").unwrap();
+        let posed = crate::engine::pose_expression(&expression, &identity).unwrap();
+        let hair = HairModel::cached(model, &identity, &posed.neutral);
+        let (o0, o1, rotation) = head_motion(model, &posed);
+        let camera = VIEW_FROM + hair.offset;
+        // How far the cards' width leans toward the camera (0: square to it), over the rows
+        // that hang free (away from the scalp and moved rigidly with the head).
+        let lean = |positions: &[Vec3], eye: Vec3| {
+            let free = hair.rows.iter().enumerate().filter(|(k, row)| {
+                hair.root_follow[2 * k] == 0.0 && (row.point - HEAD_CENTRE).length() - hair.head.surface(row.point) > 0.1
+            });
+            let leans: Vec<f32> = free.map(|(k, _)| {
+                let (a, b) = (positions[2 * k], positions[2 * k + 1]);
+                (b - a).normalize().dot((eye - (a + b) / 2.0).normalize()).abs()
+            }).collect();
+            (leans.iter().sum::<f32>() / leans.len() as f32, leans.len())
+        };
+        let (turned, rows) = lean(&hair.posed(model, &posed).positions, camera);
+        assert!(rows > 1000, "{rows} free rows");
+        assert!(turned < 0.001, "the turned head's cards lean {turned} toward the camera");
+        // Grown to face the camera of the neutral head, the cards lean after the turn.
+        let eye_in_head = o0 + rotation.transpose() * (camera - o1);
+        let (grown, _) = lean(&hair.positions, eye_in_head);
+        assert!(grown > 0.1, "without turning, the cards would lean only {grown}");
     }
 
     #[test]
