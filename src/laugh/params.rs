@@ -206,10 +206,11 @@ pub fn track_parameters(track: &LandmarkTrack) -> Result<Vec<[f64; 15]>, ParamsE
         .collect()
 }
 
-/// The neutral FP₀: the mean of the first `frames` frames of `params` (or of all of them).
+/// The neutral FP₀: the mean of the first `frames` frames of `params` (all of them when there
+/// are fewer; `params` must not be empty).
 pub fn neutral_of(params: &[[f64; 15]], frames: usize) -> [f64; 15] {
-    let used = &params[..frames.clamp(1, params.len().max(1)).min(params.len())];
-    std::array::from_fn(|k| used.iter().map(|p| p[k]).sum::<f64>() / used.len().max(1) as f64)
+    let used = &params[..frames.clamp(1, params.len())];
+    std::array::from_fn(|k| used.iter().map(|p| p[k]).sum::<f64>() / used.len() as f64)
 }
 
 /// C1-C17 of every frame by Eq. 1 (see the module doc); `file` names the track in errors.

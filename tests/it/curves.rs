@@ -10,7 +10,7 @@
 use std::path::{Path, PathBuf};
 
 use facslab::facs::{Catalog, Laterality};
-use facslab::laugh::landmarks::{read_track, write_ibug68, FramePoints};
+use facslab::laugh::landmarks::{read_track, write_ibug68, FramePoints, NEEDED};
 use facslab::laugh::Curves;
 use facslab::seeded::SplitMix64;
 
@@ -62,6 +62,24 @@ fn landmark_frames(curves: &[[f64; 2]], neutral: &FramePoints, moves: &[FramePoi
         .collect()
 }
 
+/// An iBUG-68 CSV as OpenFace 2 writes it: its bookkeeping columns first, `, `-separated names.
+fn openface(ibug: &str) -> String {
+    let mut lines = ibug.lines();
+    let header = lines.next().unwrap().replacen("frame", "frame, face_id, timestamp, confidence, success", 1).replace(',', ", ");
+    let rows: Vec<String> = lines.map(|l| l.replacen(',', ",0,0.0,0.98,1,", 1)).collect();
+    format!("{header}\n{}\n", rows.join("\n"))
+}
+
+/// The seed's 66-point layout (`x0…x65,y0…y65`; points outside those used are 0).
+fn seed66(frames: &[FramePoints]) -> String {
+    let names: Vec<String> = ["x", "y"].iter().flat_map(|a| (0..66).map(move |n| format!("{a}{n}"))).collect();
+    let rows: Vec<String> = frames
+        .iter()
+        .map(|p| (0..2).flat_map(|a| (0..66).map(move |n| NEEDED.iter().position(|&k| k == n).map_or(0.0, |k| p[k][a]))).map(|v| format!("{v:.3}")).collect::<Vec<_>>().join(","))
+        .collect();
+    format!("{}\n{}\n", names.join(","), rows.join("\n"))
+}
+
 fn track(curves: &Curves, au: u16, side: Laterality) -> &[f64] {
     &curves.tracks.iter().find(|t| t.au.0 == au && t.side == side).unwrap_or_else(|| panic!("no AU {au} {side:?} track")).values
 }
@@ -99,7 +117,13 @@ fn curves_fit_recovers_known_curves_and_picks_the_central_take() {
     for (i, &(speed, amplitude)) in variants.iter().enumerate() {
         let frames = landmark_frames(&known_curves(60, speed, amplitude), &neutral, &moves, 0.3, 7 + i as u64);
         let name = format!("take{i}.csv");
-        std::fs::write(dir.path().join(&name), write_ibug68(&frames)).unwrap();
+        // Three layouts among the takes: OpenFace 2, the seed's 66 points, iBUG 68.
+        let text = match i {
+            0 => openface(&write_ibug68(&frames)),
+            1 => seed66(&frames),
+            _ => write_ibug68(&frames),
+        };
+        std::fs::write(dir.path().join(&name), text).unwrap();
         files.push(name);
     }
     let mut args: Vec<&str> = files.iter().map(String::as_str).collect();
@@ -109,6 +133,7 @@ fn curves_fit_recovers_known_curves_and_picks_the_central_take() {
     let curves = read_curves(&dir.path().join("laughter.json"));
     let report = curves.fit.as_ref().unwrap();
     assert_eq!((report.prototype, report.tables.len(), report.takes.len()), (2, 17, 5));
+    assert_eq!(report.layouts, ["openface", "seed66", "ibug68", "ibug68", "ibug68"]);
     let truth = known_curves(60, 1.0, 1.0);
     let smile: Vec<f64> = truth.iter().map(|t| t[0]).collect();
     let jaw: Vec<f64> = truth.iter().map(|t| t[1]).collect();
@@ -163,7 +188,9 @@ fn curves_table_writes_the_fits_table3() {
         let frames = landmark_frames(&known_curves(40, speed, 1.0), &neutral, &moves, 0.3, i as u64);
         std::fs::write(dir.path().join(format!("s0{}.csv", i + 1)), write_ibug68(&frames)).unwrap();
     }
-    facslab_ok(dir.path(), &["curves", "fit", "s01.csv", "s02.csv", "s03.csv", "--type", "open_mouthed_smile", "--distance", "sum-abs", "-o", "c.json"]);
+    std::fs::write(dir.path().join("rest.csv"), write_ibug68(&landmark_frames(&[[0.0, 0.0]; 10], &neutral, &moves, 0.3, 99))).unwrap();
+    facslab_ok(dir.path(), &["curves", "fit", "s01.csv", "s02.csv", "s03.csv", "--type", "open_mouthed_smile", "--distance", "sum-abs", "--neutral", "rest.csv", "-o", "c.json"]);
+    assert_eq!(read_curves(&dir.path().join("c.json")).fit.unwrap().neutral, "rest.csv");
     facslab_ok(dir.path(), &["curves", "table", "c.json", "-o", "table3.csv"]);
     let table = std::fs::read_to_string(dir.path().join("table3.csv")).unwrap();
     let lines: Vec<&str> = table.lines().collect();
