@@ -2,8 +2,10 @@
 //! `facslab curves fit --type` checks against.
 //!
 //! In: a type id from the command line. Out: whether it names one of the thirteen.
-//! Invariant: this list and the type table (stimuli/laughs, made on the `laugh-face` branch)
-//! name the same types; when the table is merged, [`is_laugh_type`] reads the table instead.
+//! Invariant: this list and the type table (`stimuli/laughs/types.toml`, made on the
+//! `laugh-face` branch, checked equal at its commit 9fef146) name the same types; when the table
+//! is merged, [`is_laugh_type`] becomes `LaughTable::built_in().get(id).is_some()` and this list
+//! goes.
 
 /// The thirteen types, in the seed's taxonomy order (Fig. 1, 1-13).
 pub const LAUGH_TYPES: [&str; 13] = [
