@@ -4,6 +4,7 @@
 //! the editor's server; [`web`] the study platform's `serve`, `demo`, `study`, `admin`, `export` and `report`.
 
 pub mod analysis;
+pub mod curves;
 pub mod speak;
 pub mod studio;
 pub mod web;
@@ -62,6 +63,10 @@ enum Command {
 
     /// Make a face speak a sentence while it shows an emotion: an MP4 with lip-synced sound.
     Speak(speak::SpeakArgs),
+
+    /// Laugh and smile curves from landmark tracks: `curves fit` and `curves table`.
+    #[command(subcommand)]
+    Curves(curves::CurvesCommand),
 
     /// Render one expression as a PNG still, or as an MP4 video (HapFACS clip or a timeline file).
     #[command(after_help = "Examples:\n  facslab render 1+2+5B+26 --identity wf1 -o surprise.png\n  facslab render L12C+R14 --identity bm2 -o smirk.png --size 970x960\n  facslab render 12@0.42 -o faint-smile.png\n  facslab render 6+12 --video -o smile.mp4                      # 1 s onset, 1 s apex, 1 s offset, 30 fps\n  facslab render 6+12 --video --onset 0.5 --ramp cosine -o smile.mp4 --export-timeline smile.json\n  facslab render --timeline smile.json -o smile.mp4 --frames smile-frames --poster smile.png\n\nFACS notation: AUs joined by '+'; L/R prefix = one side; A-E suffix = intensity\n(15/30/55/85/100 %), or @x for a fraction in [0, 1]; no suffix = E; 0 = neutral.\nVideos are H.264 in MP4, BT.601-tagged; an odd width or height is padded to even (485x480 -> 486x480).")]
@@ -378,6 +383,7 @@ fn dispatch(command: Command) -> anyhow::Result<()> {
         Command::Serve(args) => web::serve_command(args),
         Command::Studio(args) => studio::studio_command(args),
         Command::Speak(args) => speak::speak_command(args),
+        Command::Curves(command) => curves::curves_command(command),
         Command::Study(command) => web::study_command(command),
         Command::Admin(command) => web::admin_command(command),
         Command::Export(args) => web::export_command(args),

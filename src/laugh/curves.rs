@@ -48,6 +48,10 @@ pub struct Curves {
     #[serde(default)]
     pub source: String,
     pub tracks: Vec<CurveTrack>,
+    /// How `facslab curves fit` made these curves (takes, conventions, Table 3); absent in
+    /// curves written by hand or from the type table.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fit: Option<crate::laugh::fit::FitReport>,
 }
 
 /// What is wrong with a curves file; each message names the track (1-based) or field.
@@ -191,6 +195,7 @@ mod tests {
                 CurveTrack { au: AuCode(12), side: Laterality::Both, values: rise },
                 CurveTrack { au: AuCode(26), side: Laterality::Both, values: wobble },
             ],
+            fit: None,
         }
     }
 

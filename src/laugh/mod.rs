@@ -5,7 +5,14 @@
 //! Out: an engine [`crate::engine::timeline::Timeline`] that any identity can play.
 //! Invariant: a curve set is per-frame AU intensities in [0, 1] at one frame rate; every
 //! consumer (render, `.anim` export, timeline export) reads it through [`Curves`].
+//!
+//! The fitting pipeline: [`landmarks`] (CSV tracks in four layouts) → [`params`] (FP1-FP15,
+//! Eq. 1 controllers, the AU mapping) → [`fit`] (DTW Table 3, k-medoids prototype) → [`Curves`].
 
 pub mod curves;
+pub mod fit;
+pub mod landmarks;
+pub mod params;
+pub mod type_ids;
 
 pub use curves::{CurveTrack, Curves, CurvesError};

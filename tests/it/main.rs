@@ -6,6 +6,7 @@ mod backends;
 mod balance;
 mod browser;
 mod cli;
+mod curves;
 mod e2e;
 mod edge;
 mod golden;

@@ -52,6 +52,7 @@ fn tidy_layers_touch_only_what_architecture_allows() {
     let io = ["std::fs", "File::", "read_dir", "tokio::", "sqlx::", "axum::"];
     assert_eq!(uses("engine", &io), Vec::<String>::new(), "the engine does no I/O");
     assert_eq!(uses("speech", &io), Vec::<String>::new(), "speech does no file I/O: callers write its outputs");
+    assert_eq!(uses("laugh", &io), Vec::<String>::new(), "laugh curves and their fit do no file I/O: the CLI reads tracks and writes curves");
     let clock = ["std::fs", "File::", "SystemTime", "Instant::now", "tokio::", "sqlx::", "axum::"];
     assert_eq!(uses("study", &clock), Vec::<String>::new(), "studies are pure logic: no I/O, no clock, no HTTP");
     assert_eq!(uses("analysis", &["sqlx::", "axum::", "tokio::", "crate::db", "crate::web"]), Vec::<String>::new(), "the analysis knows nothing of HTTP or SQLite");
