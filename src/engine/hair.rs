@@ -162,7 +162,18 @@ fn style_shape_uncurled(style: HairStyle, texture: HairTexture) -> StyleShape {
 /// [`HEAD_CENTRE`] in each direction.
 struct HeadMap {
     radius: Vec<f32>,
+    /// Half the face's width in front of the ears, per [`FACE_BAND`] of height from
+    /// [`FACE_LOW`] up: where hair hanging beside the face lies.
+    face_half_width: Vec<f32>,
 }
+
+/// The face's width is taken in bands of this height (decimetres) from `FACE_LOW` up to the
+/// hairline's highest point (7.75).
+const FACE_BAND: f32 = 0.05;
+const FACE_LOW: f32 = 5.9;
+const FACE_BANDS: usize = 38;
+/// How far hanging hair stays off the side of the face.
+const FACE_CLEARANCE: f32 = 0.03;
 
 impl HeadMap {
     fn new(skin: &[Vec3]) -> HeadMap {
@@ -203,7 +214,7 @@ impl HeadMap {
                 radius[i * MAP_AZIMUTH + j] = best;
             }
         }
-        HeadMap { radius }
+        HeadMap { radius, face_half_width: face_half_widths(skin) }
     }
 
     fn cell(p: Vec3) -> (usize, f32) {
@@ -250,15 +261,30 @@ impl HeadMap {
     }
 }
 
+/// Half the face's width in front of the ears (`z` > 0.15) in each band of height, widened to
+/// the neighbouring bands' (so hair does not step in between them).
+fn face_half_widths(skin: &[Vec3]) -> Vec<f32> {
+    let mut widths = vec![0.0f32; FACE_BANDS];
+    for p in skin.iter().filter(|p| p.z > 0.15 && p.y >= FACE_LOW) {
+        let band = ((p.y - FACE_LOW) / FACE_BAND) as usize;
+        if let Some(w) = widths.get_mut(band) {
+            *w = w.max(p.x.abs());
+        }
+    }
+    (0..FACE_BANDS).map(|i| widths[i.saturating_sub(1)..(i + 2).min(FACE_BANDS)].iter().copied().fold(0.0, f32::max)).collect()
+}
+
 /// Keeps hanging hair beside the face (not over it) and above the shoulders.
 ///
 /// Only hair that has fallen below its root (`root_y`) is kept off the face: hair still
 /// lying on the temple is where it grows, and pushing it sideways there would stretch the
 /// strand into a streak.
-fn keep_clear_of_face_and_shoulders(mut p: Vec3, root_y: f32) -> Vec3 {
-    // In front of the ears and below the hairline, hanging hair stays beside the cheeks and jaw.
+fn keep_clear_of_face_and_shoulders(mut p: Vec3, root_y: f32, head: &HeadMap) -> Vec3 {
+    // In front of the ears and below the hairline, hanging hair stays beside the cheeks and
+    // jaw, close to them (below the chin, beside where the jaw was).
     if p.z > 0.15 && p.y < 7.75 && p.y < root_y - 0.08 {
-        let half_width = if p.y > 6.9 { 0.84 } else { 0.62 + 0.22 * ((p.y - 6.1) / 0.8).clamp(0.0, 1.0) };
+        let band = (((p.y - FACE_LOW) / FACE_BAND).max(0.0) as usize).min(FACE_BANDS - 1);
+        let half_width = head.face_half_width[band] + FACE_CLEARANCE;
         if p.x.abs() < half_width {
             p.x = half_width * if p.x < 0.0 { -1.0 } else { 1.0 };
         }
@@ -668,7 +694,7 @@ fn grow(root: &Root, n: u32, identity: &Identity, shape: &StyleShape, head: &Hea
         if shape.hug > 0.0 && next.y > 7.1 {
             next = head.draw_towards(next, clearance, shape.hug * smooth(7.1, 7.4, next.y));
         }
-        next = keep_clear_of_face_and_shoulders(next, root.position.y);
+        next = keep_clear_of_face_and_shoulders(next, root.position.y, head);
         direction = (next - centre).normalize_or(direction);
         centre = next;
         // Curl: an offset turning around the strand's direction.
