@@ -5,7 +5,14 @@
 //! Out: an engine [`crate::engine::timeline::Timeline`] that any identity can play.
 //! Invariant: a curve set is per-frame AU intensities in [0, 1] at one frame rate; every
 //! consumer (render, `.anim` export, timeline export) reads it through [`Curves`].
+//!
+//! [`types`] reads the table (`stimuli/laughs/types.toml`); [`perform`] turns a type and a
+//! seeded [`Take`] into curves.
 
 pub mod curves;
+pub mod perform;
+pub mod types;
 
 pub use curves::{CurveTrack, Curves, CurvesError};
+pub use perform::{perform, PerformError, Take};
+pub use types::{Kind, LaughTable, LaughType, TypesError};
