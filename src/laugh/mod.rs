@@ -7,8 +7,9 @@
 //! consumer (render, `.anim` export, timeline export) reads it through [`Curves`].
 //!
 //! [`types`] reads the table (`stimuli/laughs/types.toml`); [`perform`] turns a type and a
-//! seeded [`Take`] into curves.
+//! seeded [`Take`] into curves; [`anim`] writes and reads them as Maya ASCII `.anim` files.
 
+pub mod anim;
 pub mod curves;
 pub mod perform;
 pub mod types;
