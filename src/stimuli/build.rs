@@ -365,7 +365,7 @@ fn render_entry(
 ) -> Result<String, BuildError> {
     let fail = |message: String| BuildError::Render { entry: entry.origin.clone(), message };
     let identity = IdentityTable::active().get(&entry.identity).map_err(|e| fail(e.to_string()))?;
-    let settings = FrameSettings { width: spec.size.0, height: spec.size.1, threads: Some(1), look: spec.look };
+    let settings = FrameSettings { width: spec.size.0, height: spec.size.1, threads: Some(1), look: spec.look, ..Default::default() };
     match &entry.content {
         Content::Image(expression) if spec.look.backdrop == Backdrop::Transparent => {
             // RGBA stills are not shared with videos (which have no alpha).

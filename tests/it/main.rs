@@ -9,6 +9,7 @@ mod cli;
 mod e2e;
 mod edge;
 mod golden;
+mod laugh;
 mod psych_ds;
 mod render;
 mod scale;
