@@ -15,13 +15,12 @@ use crate::engine::identity::IdentityTable;
 use crate::engine::image::RgbImage;
 use crate::engine::{self, FrameSettings, Style};
 use crate::facs::Catalog;
+use crate::laugh::strip::{side_by_side, strip_frames};
 use crate::laugh::{anim, perform, Curves, LaughTable, LaughType, Take};
 use crate::stimuli;
 
 /// Largest curves file read, bytes.
 const MAX_CURVES_BYTES: u64 = 16 << 20;
-/// Frames in a `--strip`.
-const STRIP_FRAMES: usize = 6;
 
 /// The arguments of `facslab laugh`.
 #[derive(Debug, clap::Args)]
@@ -156,23 +155,4 @@ fn read_curves(path: &Path, laugh: &LaughType) -> anyhow::Result<Curves> {
         bail!("{} holds curves of type `{}`, not `{}`", path.display(), excerpt(&curves.laugh_type), laugh.id);
     }
     Ok(curves)
-}
-
-/// [`STRIP_FRAMES`] frame numbers, the middles of as many equal parts of the take.
-pub fn strip_frames(count: usize) -> Vec<usize> {
-    (0..STRIP_FRAMES).map(|k| (2 * k + 1) * count / (2 * STRIP_FRAMES)).collect()
-}
-
-/// Images of one size side by side, left to right.
-fn side_by_side(images: &[RgbImage]) -> RgbImage {
-    let (w, h) = images.first().map_or((1, 1), |i| (i.width, i.height));
-    let mut strip = RgbImage::new(w * images.len().max(1) as u32, h);
-    for (k, image) in images.iter().enumerate() {
-        for y in 0..h {
-            for x in 0..w {
-                strip.set_pixel(k as u32 * w + x, y, image.pixel(x, y));
-            }
-        }
-    }
-    strip
 }

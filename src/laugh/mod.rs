@@ -7,11 +7,13 @@
 //! consumer (render, `.anim` export, timeline export) reads it through [`Curves`].
 //!
 //! [`types`] reads the table (`stimuli/laughs/types.toml`); [`perform`] turns a type and a
-//! seeded [`Take`] into curves; [`anim`] writes and reads them as Maya ASCII `.anim` files.
+//! seeded [`Take`] into curves; [`anim`] writes and reads them as Maya ASCII `.anim` files;
+//! [`strip`] lays a few frames of a take side by side.
 
 pub mod anim;
 pub mod curves;
 pub mod perform;
+pub mod strip;
 pub mod types;
 
 pub use curves::{CurveTrack, Curves, CurvesError};

@@ -64,6 +64,8 @@ fn laugh_renders_an_mp4_with_its_anim_timeline_ground_truth_and_strip() {
     assert_eq!((timeline.frame_count(), timeline.identity.as_str()), (45, "bf1"));
     let strip = std::fs::read(d.join("l.png")).unwrap();
     assert_eq!(&strip[16..24], &[0, 0, 1, 32, 0, 0, 0, 48], "six 48x48 frames side by side (IHDR 288x48)");
+    let rendered = facslab::laugh::strip::render_strip(&expected, "bf1", (48, 48), Style::Cartoon).unwrap();
+    assert_eq!(strip, rendered.encode_png(), "the strip shows the video's own frames");
 }
 
 /// The same arguments give the same bytes; another seed or style gives others; `--curves`
@@ -176,5 +178,24 @@ fn every_laugh_type_renders_on_every_evaluation_person_in_both_styles() {
     for (style, moved, apart) in least {
         assert!(moved.0 > MOVED, "{style}: {} moves the face by only {:.3}", moved.1, moved.0);
         assert!(apart.0 > APART, "{style}: {} differ by only {:.3}", apart.1, apart.0);
+    }
+}
+
+/// The docs' frame strips (docs/laughs.md): every type in both styles on wf1 and bm1, seed 1,
+/// 240×240. Run `cargo test --features polars --test it laugh_docs_strips -- --ignored` to
+/// remake them after changing the table or the styles.
+#[test]
+#[ignore]
+fn laugh_docs_strips() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/laughs");
+    std::fs::create_dir_all(&root).unwrap();
+    for person in ["wf1", "bm1"] {
+        for laugh in LaughTable::built_in().iter() {
+            let curves = perform(laugh, &Take::default()).unwrap();
+            for style in Style::ALL {
+                let strip = facslab::laugh::strip::render_strip(&curves, person, (240, 240), style).unwrap();
+                std::fs::write(root.join(format!("{}_{style}_{person}.png", laugh.id)), strip.encode_png()).unwrap();
+            }
+        }
     }
 }
