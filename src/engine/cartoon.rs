@@ -9,7 +9,8 @@
 //!    colour per region (skin, lips, mouth, brows, hair, lash line, top, teeth, tongue), lit in
 //!    two bands by the key light (lit where `n·l` > [`TERMINATOR`], else [`SHADE`] of it);
 //!    eyes are a white ball with a solid dark iris disc and one catchlight, unlit.
-//! 2. **Regions**: the same shader without the bands gives each region's plain colour.
+//! 2. **Regions**: the same shader without the bands gives each region's plain colour (the
+//!    mouth, teeth and tongue as one region).
 //! 3. **Depth**: [`raster::nearest_distances`] at one sample per pixel.
 //! 4. **Outlines**: a pixel is on an outline where a neighbour's region colour differs by more
 //!    than [`REGION_STEP`] or its depth by more than [`DEPTH_STEP`] (silhouettes, the jaw over
@@ -34,7 +35,7 @@ use super::shade::{below_neckline, SkinPaint};
 use super::{BODY_PART, HAIR_PART};
 
 /// How a face is drawn.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash, serde::Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash, PartialOrd, Ord, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Style {
     /// The shaded, textured face (the engine's own).
@@ -82,6 +83,8 @@ pub const SHADE: f32 = 0.55;
 pub const REGION_STEP: u32 = 48;
 /// Depths that differ by more than this (decimetres) are separated by an outline.
 pub const DEPTH_STEP: f32 = 0.3;
+/// The inside of the mouth.
+const MOUTH: Vec3 = Vec3::new(0.22, 0.03, 0.04);
 /// The outline's colour (sRGB).
 const INK: [u8; 3] = [28, 20, 22];
 
@@ -127,7 +130,7 @@ impl CartoonShader<'_> {
         let identity = self.parts.identity;
         let paint = self.parts.paint.at(f);
         let colour = if paint.inside_mouth > 0.5 {
-            return Vec3::new(0.22, 0.03, 0.04);
+            return MOUTH;
         } else if paint.lash_line > 0.5 {
             return Vec3::splat(0.02);
         } else if paint.brow > 0.4 || paint.hair > 0.5 {
@@ -171,6 +174,8 @@ impl Shader for CartoonShader<'_> {
             Some(Part::Skin) | None => self.skin(f),
             Some(Part::EyeLeft) => self.eye(f, 0),
             Some(Part::EyeRight) => self.eye(f, 1),
+            // In the regions pass the mouth is one region, so teeth and tongue get no outlines.
+            Some(Part::TeethUpper | Part::TeethLower | Part::Tongue) if !self.banded => MOUTH,
             Some(Part::TeethUpper | Part::TeethLower) => Vec3::new(0.85, 0.84, 0.78),
             Some(Part::Tongue) => Vec3::new(0.5, 0.12, 0.13),
             Some(Part::LashesUpper) => Vec3::splat(0.02),
