@@ -12,7 +12,7 @@ use crate::facs::Catalog;
 use crate::laugh::fit::{self, Distance, FitOptions, NeutralSource};
 use crate::laugh::landmarks::{self, Layout, LandmarkTrack};
 use crate::laugh::params::Epsilon;
-use crate::laugh::type_ids;
+use crate::laugh::LaughTable;
 use crate::laugh::Curves;
 
 /// The subcommands of `facslab curves`.
@@ -86,8 +86,9 @@ fn read(path: &Path, layout: Option<Layout>) -> anyhow::Result<LandmarkTrack> {
 }
 
 fn fit_command(args: &FitArgs) -> anyhow::Result<()> {
-    if !type_ids::is_laugh_type(&args.laugh_type) {
-        bail!("--type {:?} is not a laugh type; the types are: {}", args.laugh_type, type_ids::LAUGH_TYPES.join(", "));
+    let table = LaughTable::built_in();
+    if table.get(&args.laugh_type).is_none() {
+        bail!("--type {:?} is not a laugh type; the types are: {}", args.laugh_type, table.ids().join(", "));
     }
     if !(1..=120).contains(&args.fps) {
         bail!("--fps must be 1-120, not {}", args.fps);

@@ -1,10 +1,11 @@
 //! The command line: parses arguments with clap and calls the library. The only place where
 //! errors become messages for people (with `anyhow` context) and exit codes. This module holds the
-//! engine and stimulus commands; [`analysis`] holds `analyze`, `simulate` and `convert`; [`studio`]
+//! engine and stimulus commands; [`speak`] and [`laugh`] the speaking and laughing faces; [`analysis`] holds `analyze`, `simulate` and `convert`; [`studio`]
 //! the editor's server; [`web`] the study platform's `serve`, `demo`, `study`, `admin`, `export` and `report`.
 
 pub mod analysis;
 pub mod curves;
+pub mod laugh;
 pub mod speak;
 pub mod studio;
 pub mod web;
@@ -67,6 +68,8 @@ enum Command {
     /// Laugh and smile curves from landmark tracks: `curves fit` and `curves table`.
     #[command(subcommand)]
     Curves(curves::CurvesCommand),
+    /// A laugh or smile of seed 004's thirteen types as an MP4, realistic or cartoon.
+    Laugh(laugh::LaughArgs),
 
     /// Render one expression as a PNG still, or as an MP4 video (HapFACS clip or a timeline file).
     #[command(after_help = "Examples:\n  facslab render 1+2+5B+26 --identity wf1 -o surprise.png\n  facslab render L12C+R14 --identity bm2 -o smirk.png --size 970x960\n  facslab render 12@0.42 -o faint-smile.png\n  facslab render 6+12 --video -o smile.mp4                      # 1 s onset, 1 s apex, 1 s offset, 30 fps\n  facslab render 6+12 --video --onset 0.5 --ramp cosine -o smile.mp4 --export-timeline smile.json\n  facslab render --timeline smile.json -o smile.mp4 --frames smile-frames --poster smile.png\n\nFACS notation: AUs joined by '+'; L/R prefix = one side; A-E suffix = intensity\n(15/30/55/85/100 %), or @x for a fraction in [0, 1]; no suffix = E; 0 = neutral.\nVideos are H.264 in MP4, BT.601-tagged; an odd width or height is padded to even (485x480 -> 486x480).")]
@@ -384,6 +387,7 @@ fn dispatch(command: Command) -> anyhow::Result<()> {
         Command::Studio(args) => studio::studio_command(args),
         Command::Speak(args) => speak::speak_command(args),
         Command::Curves(command) => curves::curves_command(command),
+        Command::Laugh(args) => laugh::laugh_command(args),
         Command::Study(command) => web::study_command(command),
         Command::Admin(command) => web::admin_command(command),
         Command::Export(args) => web::export_command(args),
@@ -441,7 +445,7 @@ fn dispatch(command: Command) -> anyhow::Result<()> {
                 }
                 check_png_path(&output)?;
                 let (width, height) = size.unwrap_or(engine::DEFAULT_SIZE);
-                let settings = FrameSettings { width, height, threads, look: look.into() };
+                let settings = FrameSettings { width, height, threads, look: look.into(), ..Default::default() };
                 let frame = engine::render_frame(&expression, identity, settings)?;
                 return write_png(&frame.encode_png(), &output);
             }
@@ -536,7 +540,7 @@ fn dispatch(command: Command) -> anyhow::Result<()> {
             if look.backdrop == Backdrop::Transparent {
                 bail!("a contact sheet cannot have a transparent backdrop (render stills with it)");
             }
-            let settings = FrameSettings { width: tile.0, height: tile.1, threads: None, look: look.into() };
+            let settings = FrameSettings { width: tile.0, height: tile.1, threads: None, look: look.into(), ..Default::default() };
             let sheet = match set {
                 SheetSet::Aus => au_sheet(IdentityTable::active().get(&identity)?, settings, columns)?,
                 SheetSet::Emotions => emotion_sheet(settings, columns)?,
@@ -633,7 +637,7 @@ fn render_timeline_video(timeline: &Timeline, output: &Path, threads: Option<usi
     if let Some(path) = export {
         stimuli::build::write_atomic(path, timeline.to_json().as_bytes())?;
     }
-    let settings = FrameSettings { width: timeline.size[0], height: timeline.size[1], threads: Some(1), look };
+    let settings = FrameSettings { width: timeline.size[0], height: timeline.size[1], threads: Some(1), look, ..Default::default() };
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads.unwrap_or(0)).build()?;
     let mut first = None;
     let mut all_frames = Vec::new();

@@ -93,7 +93,7 @@ pub fn speak_command(args: SpeakArgs) -> anyhow::Result<()> {
     let performance = speech::speak(&text, &voice, &face, staging)?;
     performance.timeline.validate(Catalog::built_in()).context("the speaking face's timeline")?;
     let sound = speech::encode_sound(&performance.samples, performance.sample_rate)?;
-    let settings = FrameSettings { width: size.0, height: size.1, threads: Some(1), look: Default::default() };
+    let settings = FrameSettings { width: size.0, height: size.1, threads: Some(1), ..Default::default() };
     let pool = rayon::ThreadPoolBuilder::new().num_threads(args.threads.unwrap_or(0)).build()?;
     let bar = crate::progress::bar(performance.timeline.frame_count() as u64, "frames", "speak");
     let bytes = pool.install(|| {

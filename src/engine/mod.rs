@@ -13,6 +13,7 @@ pub mod asset;
 pub mod body;
 pub mod camera;
 pub mod face_text;
+pub mod cartoon;
 pub mod hair;
 pub mod identity;
 pub mod image;
@@ -34,6 +35,7 @@ use glam::Vec3;
 use crate::facs::Expression;
 use asset::{FaceModel, Part};
 use camera::Camera;
+pub use cartoon::Style;
 use identity::Identity;
 use image::{Frame, RgbImage};
 use look::{Backdrop, Look};
@@ -68,11 +70,13 @@ pub struct FrameSettings {
     pub threads: Option<usize>,
     /// Backdrop, light and colour.
     pub look: Look,
+    /// Realistic or cartoon drawing of the same geometry.
+    pub style: Style,
 }
 
 impl Default for FrameSettings {
     fn default() -> Self {
-        FrameSettings { width: DEFAULT_SIZE.0, height: DEFAULT_SIZE.1, threads: None, look: Look::default() }
+        FrameSettings { width: DEFAULT_SIZE.0, height: DEFAULT_SIZE.1, threads: None, look: Look::default(), style: Style::Realistic }
     }
 }
 
@@ -195,7 +199,7 @@ pub fn parse_size(text: &str) -> Result<(u32, u32), String> {
 
 /// Rasterises and shades an already posed head.
 pub fn render_posed(posed: &Posed, identity: &Identity, settings: FrameSettings) -> Result<RgbImage, EngineError> {
-    let FrameSettings { width, height, threads, look } = settings;
+    let FrameSettings { width, height, threads, look, style } = settings;
     if !(16..=4096).contains(&width) || !(16..=4096).contains(&height) {
         return Err(EngineError::Size(width, height));
     }
@@ -203,6 +207,12 @@ pub fn render_posed(posed: &Posed, identity: &Identity, settings: FrameSettings)
     let camera = portrait_camera(posed.anchor, width, height);
     let holder = Scene::new(posed, identity, camera.eye);
     let scene = holder.items(posed);
+    if style == Style::Cartoon {
+        let paint = shade::SkinPaint::new(model, identity);
+        let parts = cartoon::Parts { posed, identity, body: &holder.body, look, height, paint: &paint };
+        let image = cartoon::render(&scene, &camera, parts, threads);
+        return Ok(if look.grayscale { image.to_grayscale() } else { image });
+    }
     let key = look.light.lighting().lights[0].direction;
     let light_centre = posed.anchor + Vec3::new(0.0, -0.3, 0.0);
     // The light sees other hair than the camera does.
@@ -292,7 +302,7 @@ mod tests {
         let expression = catalog.parse("1+2+12+25").unwrap();
         for (id, look) in [("wf1", Look::default()), ("bf2", Look { light: look::LightPreset::Dramatic, ..Look::default() }), ("hlf2", Look::default())] {
             let identity = IdentityTable::built_in().get(id).unwrap();
-            let at = |threads| render_still(&expression, identity, FrameSettings { width: 160, height: 160, threads: Some(threads), look }).unwrap();
+            let at = |threads| render_still(&expression, identity, FrameSettings { width: 160, height: 160, threads: Some(threads), look, ..Default::default() }).unwrap();
             assert_eq!(at(1).data, at(2).data, "{id}");
         }
     }
@@ -301,7 +311,7 @@ mod tests {
     fn looks_change_the_picture_as_asked() {
         let identity = IdentityTable::built_in().get("wm2").unwrap();
         let neutral = Expression::neutral();
-        let with = |look| FrameSettings { width: 96, height: 96, threads: Some(1), look };
+        let with = |look| FrameSettings { width: 96, height: 96, threads: Some(1), look, ..Default::default() };
         let grey = render_still(&neutral, identity, with(Look { grayscale: true, ..Look::default() })).unwrap();
         assert!(grey.data.chunks(3).all(|p| p[0] == p[1] && p[1] == p[2]), "grayscale has equal channels");
         let red = Look { backdrop: "#ff0000".parse().unwrap(), ..Look::default() };

@@ -575,11 +575,7 @@ impl<'a> FaceShader<'a> {
     /// The neck below the cut and the crew-neck top over the shoulders.
     fn shade_body(&self, f: &Fragment) -> Vec3 {
         let p = f.position;
-        let around = p.x.atan2(p.z - 0.25).cos();
-        // The neckline: lower at the front than at the back, a ribbed band along it.
-        let shift = self.body.map_or(0.0, |b| b.shift.y);
-        let neckline = 5.64 + shift + 0.09 * (1.0 - around);
-        let below = neckline - p.y;
+        let below = below_neckline(self.body, p);
         if below < 0.0 {
             let albedo = self.identity.skin * (1.0 + 0.06 * (fbm(p * 40.0) - 0.5));
             return self.lit(f, f.normal, albedo, 0.35, 0.25, 18.0);
@@ -652,6 +648,48 @@ impl<'a> FaceShader<'a> {
     /// The eye sockets' own shading for the eyeball parts depends on which eye it is.
     fn eye_index(part: Part) -> usize {
         if part == Part::EyeLeft { 0 } else { 1 }
+    }
+}
+
+/// How far the body point `p` lies below the top's neckline (negative: bare neck). The
+/// neckline is lower at the front than at the back.
+pub(crate) fn below_neckline(body: Option<&Body>, p: Vec3) -> f32 {
+    let around = p.x.atan2(p.z - 0.25).cos();
+    let shift = body.map_or(0.0, |b| b.shift.y);
+    let neckline = 5.64 + shift + 0.09 * (1.0 - around);
+    neckline - p.y
+}
+
+/// The painted regions of a skin fragment, as other styles than the realistic one draw them
+/// (each a weight in [0, 1]).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Paint {
+    pub lips: f32,
+    pub inside_mouth: f32,
+    /// Scalp hair painted on the skin.
+    pub hair: f32,
+    pub brow: f32,
+    /// The upper lid's lash line.
+    pub lash_line: f32,
+}
+
+/// One person's painted skin, looked up per fragment.
+pub(crate) struct SkinPaint<'a> {
+    maps: Arc<SkinMaps>,
+    model: &'a FaceModel,
+}
+
+impl<'a> SkinPaint<'a> {
+    pub(crate) fn new(model: &'a FaceModel, identity: &Identity) -> SkinPaint<'a> {
+        SkinPaint { maps: SkinMaps::cached(model, identity), model }
+    }
+
+    pub(crate) fn at(&self, f: &Fragment) -> Paint {
+        let painted = self.maps.at(f);
+        let [a, b, c] = f.vertex.map(|v| self.model.rest[v as usize]);
+        let rest = a * f.barycentric.x + b * f.barycentric.y + c * f.barycentric.z;
+        let lash_line = painted.margin * (1.0 - painted.lower) * (1.0 - painted.caruncle);
+        Paint { lips: painted.lips, inside_mouth: painted.inside_mouth, hair: painted.hair, brow: brow_mask(rest), lash_line }
     }
 }
 

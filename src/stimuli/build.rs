@@ -365,7 +365,7 @@ fn render_entry(
 ) -> Result<String, BuildError> {
     let fail = |message: String| BuildError::Render { entry: entry.origin.clone(), message };
     let identity = IdentityTable::active().get(&entry.identity).map_err(|e| fail(e.to_string()))?;
-    let settings = FrameSettings { width: spec.size.0, height: spec.size.1, threads: Some(1), look: spec.look };
+    let settings = FrameSettings { width: spec.size.0, height: spec.size.1, threads: Some(1), look: spec.look, ..Default::default() };
     match &entry.content {
         Content::Image(expression) if spec.look.backdrop == Backdrop::Transparent => {
             // RGBA stills are not shared with videos (which have no alpha).
@@ -486,7 +486,7 @@ pub fn render_video(
                 fresh.push(f);
             }
         }
-        let frame_key = |f: usize| FrameKey::new(&timeline.identity, (settings.width, settings.height), &keys[f]);
+        let frame_key = |f: usize| FrameKey::new(&timeline.identity, (settings.width, settings.height), &keys[f]).in_style(settings.style);
         let render = |&f: &usize| -> Result<(usize, Arc<RgbImage>), engine::EngineError> {
             if let Some(image) = shared.and_then(|s| s.get(&frame_key(f))) {
                 return Ok((f, image));
@@ -526,7 +526,7 @@ pub fn render_video(
     }
     if let Some(shared) = shared {
         let distinct: BTreeSet<&String> = keys.iter().collect();
-        let done: Vec<FrameKey> = distinct.into_iter().map(|k| FrameKey::new(&timeline.identity, (settings.width, settings.height), k)).collect();
+        let done: Vec<FrameKey> = distinct.into_iter().map(|k| FrameKey::new(&timeline.identity, (settings.width, settings.height), k).in_style(settings.style)).collect();
         shared.release(&done);
     }
     let bytes = encoder.finish()?;

@@ -1,7 +1,7 @@
 //! Frames shared between the entries of one build.
 //!
 //! In: for every entry about to be rendered, the distinct frames it shows (person, size,
-//! expression). Out: a store that keeps a rendered frame only while some entry that has not yet
+//! expression, style). Out: a store that keeps a rendered frame only while some entry that has not yet
 //! finished still shows it, so a still that is also a frame of a clip (Exp. 1's 30/60/90 %
 //! stills, Exp. 3's 50/100 % images) or the neutral first frame of every clip of one person is
 //! rendered once. Frames that only one entry shows are never kept here.
@@ -14,6 +14,7 @@ use std::collections::{BTreeSet, HashMap};
 use std::sync::{Arc, Mutex};
 
 use crate::engine::image::RgbImage;
+use crate::engine::Style;
 
 /// What makes two frames the same picture.
 #[derive(Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -22,11 +23,19 @@ pub struct FrameKey {
     pub size: (u32, u32),
     /// The expression in FACS notation, as the engine renders it.
     pub expression: String,
+    /// How the face is drawn (a cartoon frame is another picture than the realistic one).
+    pub style: Style,
 }
 
 impl FrameKey {
+    /// The key of a realistic frame.
     pub fn new(identity: &str, size: (u32, u32), expression: &impl std::fmt::Display) -> FrameKey {
-        FrameKey { identity: identity.to_string(), size, expression: expression.to_string() }
+        FrameKey { identity: identity.to_string(), size, expression: expression.to_string(), style: Style::Realistic }
+    }
+
+    /// The same frame drawn in `style`.
+    pub fn in_style(self, style: Style) -> FrameKey {
+        FrameKey { style, ..self }
     }
 }
 

@@ -292,12 +292,12 @@ impl Job {
     pub fn render(self) -> Result<Rendered, RequestError> {
         match self {
             Job::Still { expression, identity, size, look } => {
-                let settings = FrameSettings { width: size.0, height: size.1, threads: None, look };
+                let settings = FrameSettings { width: size.0, height: size.1, threads: None, look, ..Default::default() };
                 let frame = engine::render_frame(&expression, identity, settings).map_err(|e| RequestError::Render(e.to_string()))?;
                 Ok(Rendered { bytes: frame.encode_png(), video: false })
             }
             Job::Video(timeline, look) => {
-                let settings = FrameSettings { width: timeline.size[0], height: timeline.size[1], threads: Some(1), look };
+                let settings = FrameSettings { width: timeline.size[0], height: timeline.size[1], threads: Some(1), look, ..Default::default() };
                 let bytes = crate::stimuli::render_video(&timeline, settings, None, true, None, None, None, &mut |_, _| {})
                     .map_err(|e| RequestError::Render(e.to_string()))?;
                 Ok(Rendered { bytes, video: true })

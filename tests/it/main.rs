@@ -10,6 +10,7 @@ mod curves;
 mod e2e;
 mod edge;
 mod golden;
+mod laugh;
 mod psych_ds;
 mod render;
 mod scale;
