@@ -326,7 +326,7 @@ impl Simulation<'_> {
         match self.o.confusion {
             Confusion::Similar => SIMILAR_EMOTIONS.iter().find(|(a, _)| *a == shown).map_or("none", |(_, b)| b).to_string(),
             Confusion::Uniform => {
-                let others: Vec<&String> = LabelSet::Emotion.labels().iter().filter(|l| *l != shown).collect();
+                let others: Vec<&String> = LabelSet::emfacs().labels().iter().filter(|l| *l != shown).collect();
                 others[self.rng.below(others.len())].clone()
             }
         }
