@@ -4,7 +4,9 @@
 //! `identity`, `expression`, `emotion` and `intensity`; other columns (files, timing, hashes,
 //! seeds) are ignored, so the builder can add columns without breaking the analysis. The
 //! `emotion` column names a declared label (`study::labels`): `laughs:sly_smile`, or a bare label
-//! of the EmFACS set, as every manifest before label sets.
+//! of the EmFACS set, as every manifest before label sets. An optional `style` column names how
+//! the stimulus was made (seed 004: `realistic` or `cartoon` avatar, `real` for a recording);
+//! a manifest without it leaves every style empty.
 
 use std::path::Path;
 
@@ -29,6 +31,8 @@ pub struct Stimulus {
     pub labels: LabelSet,
     /// Peak intensity in [0, 1].
     pub intensity: f64,
+    /// How the stimulus was made (`realistic`, `cartoon`, `real`; empty when not stated).
+    pub style: String,
 }
 
 impl Stimulus {
@@ -66,6 +70,7 @@ impl Manifest {
         let c_expr = input.column("expression")?;
         let c_emotion = input.column("emotion")?;
         let c_intensity = input.column("intensity")?;
+        let c_style = input.header_names().iter().position(|h| h == "style");
         let mut manifest = Manifest::default();
         let mut rows = Vec::new();
         input.for_each(|r, place| {
@@ -101,6 +106,7 @@ impl Manifest {
                 emotion,
                 labels,
                 intensity,
+                style: c_style.map_or_else(String::new, |c| r[c].trim().to_string()),
             });
         }
         Ok(manifest)
@@ -168,6 +174,9 @@ mod tests {
         assert_eq!((m.stimuli[0].labels.id(), m.stimuli[0].emotion.as_deref()), ("laughs", Some("sly_smile")));
         assert_eq!((m.stimuli[1].labels.id(), m.stimuli[1].emotion.as_deref()), ("emfacs", Some("happiness")));
         assert_eq!((m.stimuli[2].labels.id(), m.stimuli[2].emotion.as_deref()), ("emfacs", None));
+        assert!(m.stimuli.iter().all(|s| s.style.is_empty()), "no style column, no style");
+        let styled = read(&format!("{HEADER},style\na1,video,a1.mp4,wm1,6+12,laughs:laughter,1,,,,,,,,,,, cartoon\n")).unwrap();
+        assert_eq!(styled.stimuli[0].style, "cartoon");
         for (label, expected) in [("sly_smile", "not a label of the emfacs label set"), ("laughs:happiness", "not a label of the laughs label set"), ("moods:joy", "not a declared label set")] {
             let text = format!("{HEADER}\na1,video,a1.mp4,wm1,6+12,{label},1,,,,,,,,,,\n");
             let err = read(&text).unwrap_err().to_string();

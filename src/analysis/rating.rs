@@ -73,7 +73,7 @@ pub struct Describe {
     pub sd: Option<f64>,
 }
 
-fn describe(x: &[f64]) -> Option<Describe> {
+pub(crate) fn describe(x: &[f64]) -> Option<Describe> {
     if x.is_empty() {
         return None;
     }
