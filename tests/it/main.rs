@@ -9,6 +9,7 @@ mod cli;
 mod e2e;
 mod edge;
 mod golden;
+mod laughs_study;
 mod psych_ds;
 mod render;
 mod scale;
