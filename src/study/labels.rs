@@ -1,6 +1,6 @@
 //! Label sets as data: the answers a forced-choice study offers and the labels stimuli portray.
 //!
-//! In: a label-set TOML file (`id`, `name`, `none`, `report_order`, then one `[[label]]` per
+//! In: a label-set TOML text (the edge reads the file; this module does no I/O) (`id`, `name`, `none`, `report_order`, then one `[[label]]` per
 //! label with `id`, `name` and `description`); the built-in ones are `stimuli/labels/*.toml`
 //! (the EmFACS emotions, the 13 laugh and smile types), compiled in. Out: a [`LabelSet`], a
 //! cheap handle every consumer reads (stimulus manifests, set specs, study designs, the trial
@@ -34,8 +34,6 @@ pub const BUILT_IN: [(&str, &str); 2] = [
 pub enum LabelError {
     #[error("label set {file}: {message}")]
     Invalid { file: String, message: String },
-    #[error("label set {file}: cannot read it: {message}")]
-    Io { file: String, message: String },
     #[error("\"{0}\" is not a declared label set (one of {1})")]
     Unknown(String, String),
 }
@@ -108,13 +106,6 @@ impl LabelTable {
         }
         Ok(table)
     }
-
-    /// Reads a label-set file.
-    pub fn read(path: &std::path::Path) -> Result<LabelTable, LabelError> {
-        let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| LabelError::Io { file: file.clone(), message: e.to_string() })?;
-        LabelTable::from_toml(&file, &text)
-    }
 }
 
 /// A table with the answers forms offer, computed once.
@@ -182,11 +173,6 @@ impl LabelSet {
         let leaked: &'static Declared = Box::leak(Box::new(Declared::new(table)));
         registered().push(leaked);
         Ok(LabelSet(leaked))
-    }
-
-    /// Reads a label-set file and registers it.
-    pub fn load(path: &std::path::Path) -> Result<LabelSet, LabelError> {
-        LabelSet::register(LabelTable::read(path)?)
     }
 
     /// The ids of every declared set, built-in ones first.
