@@ -2,12 +2,17 @@
 //!
 //! Reads `manifest.csv` (design.md §3) by column name and uses only `stimulus_id`, `media`,
 //! `identity`, `expression`, `emotion` and `intensity`; other columns (files, timing, hashes,
-//! seeds) are ignored, so the builder can add columns without breaking the analysis.
+//! seeds) are ignored, so the builder can add columns without breaking the analysis. The
+//! `emotion` column names a declared label (`study::labels`): `laughs:sly_smile`, or a bare label
+//! of the EmFACS set, as every manifest before label sets. An optional `style` column names how
+//! the stimulus was made (seed 004: `realistic` or `cartoon` avatar, `real` for a recording);
+//! a manifest without it leaves every style empty.
 
 use std::path::Path;
 
 use super::input::{FxHashMap, InputError, TableInput};
 use crate::facs::{Catalog, EmotionTable, Expression};
+use crate::study::labels::{LabelSet, Qualified};
 
 /// Still image or video: the manifest's own type.
 pub use crate::stimuli::manifest::Media;
@@ -20,10 +25,14 @@ pub struct Stimulus {
     pub identity: String,
     /// What the face shows (FACS notation with sides and intensities).
     pub expression: Expression,
-    /// The EmFACS label the stimulus portrays, if it portrays one.
+    /// The label the stimulus portrays (its id within `labels`), if it portrays one.
     pub emotion: Option<String>,
+    /// The label set of `emotion` (EmFACS for a stimulus that portrays none).
+    pub labels: LabelSet,
     /// Peak intensity in [0, 1].
     pub intensity: f64,
+    /// How the stimulus was made (`realistic`, `cartoon`, `real`; empty when not stated).
+    pub style: String,
 }
 
 impl Stimulus {
@@ -52,13 +61,16 @@ impl Manifest {
         Self::parse(TableInput::from_reader(Path::new(name), Box::new(std::io::Cursor::new(bytes)))?, catalog, emotions)
     }
 
-    fn parse(mut input: TableInput, catalog: &Catalog, emotions: &EmotionTable) -> Result<Manifest, InputError> {
+    /// `_emotions` is the EmFACS table the bare labels come from; they are checked through the
+    /// declared `emfacs` label set, which lists the same labels (`emfacs_labels_follow_the_emotion_table`).
+    fn parse(mut input: TableInput, catalog: &Catalog, _emotions: &EmotionTable) -> Result<Manifest, InputError> {
         let c_id = input.column("stimulus_id")?;
         let c_media = input.column("media")?;
         let c_identity = input.column("identity")?;
         let c_expr = input.column("expression")?;
         let c_emotion = input.column("emotion")?;
         let c_intensity = input.column("intensity")?;
+        let c_style = input.header_names().iter().position(|h| h == "style");
         let mut manifest = Manifest::default();
         let mut rows = Vec::new();
         input.for_each(|r, place| {
@@ -73,10 +85,9 @@ impl Manifest {
             let text = r[c_media].trim();
             let media = Media::parse(text).ok_or_else(|| input.cell(place, "media", format!("\"{}\" is not image or video", crate::study::excerpt(text, 32))))?;
             let expression = catalog.parse(&r[c_expr]).map_err(|e| input.cell(place, "expression", e.to_string()))?;
-            let emotion = match r[c_emotion].trim() {
-                "" => None,
-                label if emotions.get(label).is_some() => Some(label.to_string()),
-                label => return Err(input.cell(place, "emotion", format!("\"{label}\" is not an emotion of the EmFACS table"))),
+            let (labels, emotion) = match r[c_emotion].trim() {
+                "" => (LabelSet::emfacs(), None),
+                text => Qualified::split(text).resolve().map(|(set, label)| (set, Some(label.id.clone()))).map_err(|e| input.cell(place, "emotion", e))?,
             };
             let intensity: f64 = r[c_intensity]
                 .trim()
@@ -93,10 +104,18 @@ impl Manifest {
                 identity: r[c_identity].trim().to_string(),
                 expression,
                 emotion,
+                labels,
                 intensity,
+                style: c_style.map_or_else(String::new, |c| r[c].trim().to_string()),
             });
         }
         Ok(manifest)
+    }
+
+    /// The label set the stimuli portray labels of, which a forced choice on them offers: the
+    /// set of the first labelled stimulus, EmFACS when none is labelled.
+    pub fn label_set(&self) -> LabelSet {
+        self.stimuli.iter().find(|s| s.emotion.is_some()).map_or_else(LabelSet::emfacs, |s| s.labels)
     }
 
     /// The position of a stimulus id in [`Manifest::stimuli`].
@@ -146,5 +165,22 @@ mod tests {
         assert!(read(&text).unwrap_err().to_string().contains("column \"intensity\""));
         let text = format!("{HEADER}\na1,video,a1.mp4,wm1,1,,1,,,,,,,,,,\na1,video,a1.mp4,wm1,2,,1,,,,,,,,,,\n");
         assert!(read(&text).unwrap_err().to_string().contains("appears twice"));
+    }
+
+    #[test]
+    fn labels_name_their_set_and_bare_ones_mean_emfacs() {
+        let text = format!("{HEADER}\na1,video,a1.mp4,wm1,6+12,laughs:sly_smile,1,,,,,,,,,,\nb2,image,b2.png,wm1,6+12+25,happiness,1,,,,,,,,,,\nc3,image,c3.png,wm1,0,,1,,,,,,,,,,\n");
+        let m = read(&text).unwrap();
+        assert_eq!((m.stimuli[0].labels.id(), m.stimuli[0].emotion.as_deref()), ("laughs", Some("sly_smile")));
+        assert_eq!((m.stimuli[1].labels.id(), m.stimuli[1].emotion.as_deref()), ("emfacs", Some("happiness")));
+        assert_eq!((m.stimuli[2].labels.id(), m.stimuli[2].emotion.as_deref()), ("emfacs", None));
+        assert!(m.stimuli.iter().all(|s| s.style.is_empty()), "no style column, no style");
+        let styled = read(&format!("{HEADER},style\na1,video,a1.mp4,wm1,6+12,laughs:laughter,1,,,,,,,,,,, cartoon\n")).unwrap();
+        assert_eq!(styled.stimuli[0].style, "cartoon");
+        for (label, expected) in [("sly_smile", "not a label of the emfacs label set"), ("laughs:happiness", "not a label of the laughs label set"), ("moods:joy", "not a declared label set")] {
+            let text = format!("{HEADER}\na1,video,a1.mp4,wm1,6+12,{label},1,,,,,,,,,,\n");
+            let err = read(&text).unwrap_err().to_string();
+            assert!(err.contains("column \"emotion\"") && err.contains(expected), "{err}");
+        }
     }
 }

@@ -34,6 +34,7 @@ pub mod parquet;
 pub mod parquet;
 pub mod rating;
 pub mod simulate;
+pub mod styles;
 pub mod responses;
 pub mod stats;
 
@@ -51,6 +52,8 @@ pub struct Analysis {
     pub rating: Option<RatingReport>,
     /// Table 6; absent when nobody stated demographics.
     pub demographics: Option<demographics::Demographics>,
+    /// Seed 004: ratings by label × style; empty unless the stimuli cross two styles and labels.
+    pub styles: Vec<styles::StyleScale>,
 }
 
 /// The whole analysis of validated responses against their manifest. No I/O: the responses come
@@ -62,6 +65,7 @@ pub fn analyze(manifest: &manifest::Manifest, responses: &responses::Responses, 
         coding: coding::analyze(manifest, responses, catalog, *options),
         rating: rating::analyze(manifest, responses),
         demographics: demographics::analyze(manifest, responses),
+        styles: styles::analyze(manifest, responses),
     }
 }
 

@@ -128,7 +128,7 @@ fn run_seed(seed: u64, size: usize, run: usize) -> u64 {
 /// Simulates and analyses one run; returns its headline statistics.
 fn one_run(model: &SimOptions, size: usize, seed: u64) -> Result<Vec<Observation>, PowerError> {
     let options = match model.design {
-        Design::Exp3 | Design::Exp4 => SimOptions { seed, participants: size, ..model.clone() },
+        Design::Exp3 | Design::Exp4 | Design::LaughDescription | Design::LaughMotion => SimOptions { seed, participants: size, ..model.clone() },
         Design::Exp1 | Design::Exp2 => SimOptions { seed, coders: size, ..model.clone() },
     };
     let (manifest_csv, responses_csv) = simulate(&options);

@@ -3,8 +3,8 @@
 //! Conventions (also written into the report):
 //! - **Conditions**: stimuli are grouped by media and peak intensity in whole percent
 //!   (`video 100%`, `image 50%` …), the stimulus groups of Tables 7–10 and 12.
-//! - **Label set**: the EmFACS labels (non-neutral ones alphabetically, then `neutral`) plus
-//!   `none`; chance = 1 / number of options. Confusion rows = shown emotion (only emotions
+//! - **Label set**: the manifest's declared label set in its report order (EmFACS: non-neutral
+//!   ones alphabetically, then `neutral`) plus `none`; chance = 1 / number of options. Confusion rows = shown emotion (only emotions
 //!   shown in the condition), columns = chosen label; percent = row percent.
 //! - **Recognition rate** = hits / answers for the shown emotion; the condition's average rate
 //!   is the unweighted mean over the shown emotions (the seed's "Average rate"); accuracy is
@@ -73,7 +73,7 @@ pub struct Describe {
     pub sd: Option<f64>,
 }
 
-fn describe(x: &[f64]) -> Option<Describe> {
+pub(crate) fn describe(x: &[f64]) -> Option<Describe> {
     if x.is_empty() {
         return None;
     }
@@ -194,15 +194,12 @@ pub struct RatingReport {
     pub table14: Vec<ComparisonRow>,
 }
 
-/// The answer options in display order: non-neutral emotions alphabetically, neutral, none.
-fn display_labels(responses: &Responses) -> Vec<String> {
-    let mut labels: Vec<String> = responses.emotion_labels.iter().filter(|l| *l != "neutral" && *l != "none").cloned().collect();
-    labels.sort();
-    if responses.label("neutral").is_some() {
-        labels.push("neutral".into());
-    }
-    labels.push("none".into());
-    labels
+/// The answer options in display order: the label set's report order (EmFACS: non-neutral
+/// emotions alphabetically, then neutral, as HapFACS's tables), then `none` when offered.
+fn display_labels(manifest: &Manifest, responses: &Responses) -> Vec<String> {
+    let set = manifest.label_set();
+    let none = responses.label(crate::study::labels::NONE).map(|_| crate::study::labels::NONE.to_string());
+    set.report_order().into_iter().chain(none).collect()
 }
 
 type CondKey = (Media, u32);
@@ -622,7 +619,7 @@ pub fn analyze(manifest: &Manifest, responses: &Responses) -> Option<RatingRepor
     if responses.emotions.is_empty() && responses.ratings.is_empty() {
         return None;
     }
-    let labels = display_labels(responses);
+    let labels = display_labels(manifest, responses);
     let ctx = Context {
         manifest,
         responses,

@@ -61,7 +61,8 @@ pub struct Rating {
 pub struct Responses {
     pub participants: Vec<Participant>,
     pub groups: Vec<String>,
-    /// The answer options of the emotion task: [`LabelSet::Emotion`]'s labels.
+    /// The answer options of the forced choice: the labels of the manifest's label set
+    /// ([`Manifest::label_set`]; EmFACS for manifests that name none).
     pub emotion_labels: Vec<String>,
     pub aus: Vec<AuAnswer>,
     pub emotions: Vec<EmotionAnswer>,
@@ -165,7 +166,7 @@ struct Reader<'a> {
 impl<'a> Reader<'a> {
     fn new(file: std::path::PathBuf, manifest: &'a Manifest, catalog: &'a Catalog) -> Reader<'a> {
         Reader {
-            out: Responses { emotion_labels: LabelSet::Emotion.labels().to_vec(), ..Responses::default() },
+            out: Responses { emotion_labels: manifest.label_set().labels().to_vec(), ..Responses::default() },
             manifest,
             catalog,
             file,
@@ -322,8 +323,8 @@ impl<'a> Reader<'a> {
             self.out.aus.push(AuAnswer { participant, stimulus, aus });
             return Ok(());
         }
-        match measure.value(value, self.catalog).map_err(|e| self.cell(place, "value", e))? {
-            Value::Label(label) => self.out.emotions.push(EmotionAnswer { participant, stimulus, label }),
+        match measure.value_in(value, self.catalog, self.manifest.label_set()).map_err(|e| self.cell(place, "value", e))? {
+            Value::Label(_, label) => self.out.emotions.push(EmotionAnswer { participant, stimulus, label }),
             Value::Likert(v) => {
                 let Measure::Scale(scale) = measure else { unreachable!("Likert values belong to scales") };
                 self.out.ratings.push(Rating { participant, stimulus, scale, value: f64::from(v) });
@@ -382,7 +383,7 @@ impl Responses {
     /// `emotions` is the table the manifest was read with; the answer labels are the declared
     /// label set's, which is built from the same shipped table.
     fn parse(mut input: TableInput, manifest: &Manifest, catalog: &Catalog, emotions: &EmotionTable) -> Result<Responses, InputError> {
-        debug_assert!(emotions.iter().zip(LabelSet::Emotion.labels()).all(|(e, l)| &e.label == l));
+        debug_assert!(emotions.iter().zip(LabelSet::emfacs().labels()).all(|(e, l)| &e.label == l));
         let columns = Columns::find(&input)?;
         let mut reader = Reader::new(input.file.clone(), manifest, catalog);
         let header = input.header_names();
@@ -455,7 +456,7 @@ mod tests {
         let e = error("p1,,s2,1,believability,3,\n");
         assert!(e.contains("column \"group\": empty group"), "{e}");
         let e = error("p1,a,s2,1,emotion,joy,\n");
-        assert!(e.contains("\"joy\" is not an emotion label"), "{e}");
+        assert!(e.contains("\"joy\" is not a label of the emfacs set"), "{e}");
         let e = error("p1,a,s2,1,emotion,fear,\np1,b,s1,1,emotion,fear,\n");
         assert!(e.contains("row 2 (line 3), column \"group\""), "{e}");
         let e = error("p1,a,s2,1,emotion,fear,\np1,a,s2,1,emotion,anger,\n");

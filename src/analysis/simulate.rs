@@ -15,10 +15,15 @@
 //! other one. With `group_difference`, the believability of the raters of every group after
 //! the first is shifted by that many scale points. Coders also add a random unshown AU with
 //! probability `false_positive`. Each judgement is dropped with probability `missing`.
+//! - `laugh-description`, `laugh-motion`: seed 004's two rating studies on the 13 laugh types
+//!   (`simulate::laughs`, which states their model).
+//!
 //! Deterministic: the same options give the same bytes (SplitMix64, no other source of
 //! randomness).
 
 use std::fmt::Write;
+
+mod laughs;
 
 use crate::facs::{Catalog, EmotionTable, Expression, Laterality};
 use crate::seeded::SplitMix64;
@@ -31,6 +36,10 @@ pub enum Design {
     Exp2,
     Exp3,
     Exp4,
+    /// Seed 004 study 1: description match of real and generated laughs.
+    LaughDescription,
+    /// Seed 004 study 2: q1/q2 of the 13 laugh types on two avatars.
+    LaughMotion,
 }
 
 impl Design {
@@ -41,6 +50,8 @@ impl Design {
             Design::Exp2 => "exp2",
             Design::Exp3 => "exp3",
             Design::Exp4 => "exp4",
+            Design::LaughDescription => "laugh-description",
+            Design::LaughMotion => "laugh-motion",
         }
     }
 }
@@ -168,10 +179,13 @@ fn demographics(out: &mut String, rng: &mut SplitMix64, pid: &str, group: &str) 
 
 /// Runs a simulation; returns (manifest CSV, responses CSV).
 pub fn simulate(o: &SimOptions) -> (String, String) {
-    let mut sim = Simulation { o, rng: SplitMix64(o.seed), manifest: String::from(MANIFEST_HEADER), responses: String::from(RESPONSES_HEADER) };
+    let header = if matches!(o.design, Design::LaughDescription | Design::LaughMotion) { laughs::MANIFEST_HEADER } else { MANIFEST_HEADER };
+    let mut sim = Simulation { o, rng: SplitMix64(o.seed), manifest: String::from(header), responses: String::from(RESPONSES_HEADER) };
     match o.design {
         Design::Exp1 | Design::Exp2 => sim.coders(),
         Design::Exp3 | Design::Exp4 => sim.raters(),
+        Design::LaughDescription => sim.laugh_description(),
+        Design::LaughMotion => sim.laugh_motion(),
     }
     (sim.manifest, sim.responses)
 }
@@ -326,7 +340,7 @@ impl Simulation<'_> {
         match self.o.confusion {
             Confusion::Similar => SIMILAR_EMOTIONS.iter().find(|(a, _)| *a == shown).map_or("none", |(_, b)| b).to_string(),
             Confusion::Uniform => {
-                let others: Vec<&String> = LabelSet::Emotion.labels().iter().filter(|l| *l != shown).collect();
+                let others: Vec<&String> = LabelSet::emfacs().labels().iter().filter(|l| *l != shown).collect();
                 others[self.rng.below(others.len())].clone()
             }
         }
@@ -341,7 +355,7 @@ mod tests {
 
     #[test]
     fn same_seed_same_bytes_and_files_read_back() {
-        for design in [Design::Exp1, Design::Exp2, Design::Exp3, Design::Exp4] {
+        for design in [Design::Exp1, Design::Exp2, Design::Exp3, Design::Exp4, Design::LaughDescription, Design::LaughMotion] {
             let o = SimOptions { design, seed: 7, participants: 4, missing: 0.05, ..SimOptions::default() };
             let (m1, r1) = simulate(&o);
             let (m2, r2) = simulate(&o);
@@ -356,6 +370,7 @@ mod tests {
                 Design::Exp2 => 54,
                 Design::Exp3 => 80,
                 Design::Exp4 => 20,
+                Design::LaughDescription | Design::LaughMotion => 26,
             };
             assert_eq!(manifest.len(), expected);
             assert!(responses.rows > 0);

@@ -44,6 +44,10 @@ pub enum DesignArg {
     Exp3,
     /// Emotions, lay raters, the videos at 100 % only (Exp. 4; one per emotion with --identities 1).
     Exp4,
+    /// Seed 004 study 1: real vs generated laugh videos of 6-7 random types, description match 0-5.
+    LaughDescription,
+    /// Seed 004 study 2: the 13 laugh types on the realistic and cartoon avatar, q1 and q2 0-5.
+    LaughMotion,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -96,6 +100,8 @@ impl ModelArgs {
                 DesignArg::Exp2 => Design::Exp2,
                 DesignArg::Exp3 => Design::Exp3,
                 DesignArg::Exp4 => Design::Exp4,
+                DesignArg::LaughDescription => Design::LaughDescription,
+                DesignArg::LaughMotion => Design::LaughMotion,
             },
             seed,
             coders,

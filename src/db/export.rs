@@ -362,7 +362,7 @@ pub fn codebook_rows(design: &StudyDesign) -> Vec<[String; 4]> {
                 let item = design.items.iter().find(|i| i.measure == scale).expect("a design's measures come from its items");
                 row("", declared.name, &item.prompt, &format!("{}={} .. {}={}", item.min, item.min_label, item.max, item.max_label));
             }
-            (_, Kind::Labels(set)) => row("", declared.name, declared.codebook, &set.labels().join("|")),
+            (_, Kind::Labels) => row("", declared.name, declared.codebook, &design.labels.labels().join("|")),
             _ => row("", declared.name, declared.codebook, ""),
         }
     }

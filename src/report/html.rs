@@ -66,6 +66,16 @@ struct DesignPage {
     post_hoc: Option<PageTable>,
 }
 
+/// Seed 004's studies: ratings by label × style.
+#[derive(Serialize)]
+struct StylesPage {
+    convention: &'static str,
+    means: Option<PageTable>,
+    plots: Vec<Figure>,
+    anova: Option<PageTable>,
+    scheffe: Option<PageTable>,
+}
+
 /// What the template gets: the report (for the prose) and the tables' page views.
 #[derive(Serialize)]
 struct Page<'a> {
@@ -73,6 +83,7 @@ struct Page<'a> {
     coding: Option<CodingPage>,
     demographics: Option<PageTable>,
     rating: Option<RatingPage>,
+    styles: Option<StylesPage>,
 }
 
 /// The page views of the tables, found by CSV file name.
@@ -100,6 +111,16 @@ impl Views<'_> {
             table4: self.table("table4_combinations.csv", &[])?,
             agreement: self.table("coder_agreement.csv", &[])?,
             au_level: self.table("au_level_comparison.csv", &[])?,
+        })
+    }
+
+    fn styles(&self, report: &Report) -> Result<StylesPage, ReportError> {
+        Ok(StylesPage {
+            convention: crate::analysis::styles::CONVENTION,
+            means: self.table("styles_means.csv", &[])?,
+            plots: report.styles.iter().filter_map(|s| self.plot(&format!("plot_styles_{}.png", s.scale.name()))).collect(),
+            anova: self.table("styles_anova.csv", &[])?,
+            scheffe: self.table("styles_scheffe.csv", &[])?,
         })
     }
 
@@ -154,7 +175,8 @@ pub(super) fn page(report: &Report, tables: &[Table], plots: &[Figure]) -> Resul
     let coding = report.coding.as_ref().map(|_| views.coding()).transpose()?;
     let rating = report.rating.as_ref().map(|r| views.rating(r)).transpose()?;
     let demographics = views.table("table6_demographics.csv", &[])?;
-    let page = Page { report, coding, demographics, rating };
+    let styles = (!report.styles.is_empty()).then(|| views.styles(report)).transpose()?;
+    let page = Page { report, coding, demographics, rating, styles };
     let context = Context::from_serialize(&page).map_err(|e| ReportError::Page { detail: e.to_string() })?;
     templates()?.render("report/report.html", &context).map_err(|e| ReportError::Page { detail: e.to_string() })
 }

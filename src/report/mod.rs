@@ -22,6 +22,7 @@ use crate::analysis::coding::{CodingOptions, CodingReport};
 use crate::analysis::demographics::Demographics;
 use crate::analysis::manifest::Manifest;
 use crate::analysis::rating::RatingReport;
+use crate::analysis::styles::StyleScale;
 use crate::analysis::responses::Responses;
 
 /// What went in.
@@ -47,6 +48,10 @@ pub struct Report {
     pub rating: Option<RatingReport>,
     /// Table 6; absent when nobody stated demographics.
     pub demographics: Option<Demographics>,
+    /// Seed 004's studies: ratings by label × style (means, two-way ANOVA, Scheffé); left out
+    /// of `report.json` when the stimuli name no two styles.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub styles: Vec<StyleScale>,
 }
 
 /// Why a report could not be written.
@@ -70,7 +75,7 @@ fn file_name(p: &Path) -> String {
 
 /// The report of [`crate::analysis::analyze`] on these inputs (the paths only name them).
 pub fn build(manifest: &Manifest, responses: &Responses, options: CodingOptions, responses_path: &Path, manifest_path: &Path) -> Report {
-    let Analysis { coding, rating, demographics } = crate::analysis::analyze(manifest, responses, &options);
+    let Analysis { coding, rating, demographics, styles } = crate::analysis::analyze(manifest, responses, &options);
     Report {
         facslab_version: env!("CARGO_PKG_VERSION").to_string(),
         inputs: Inputs {
@@ -85,6 +90,7 @@ pub fn build(manifest: &Manifest, responses: &Responses, options: CodingOptions,
         coding,
         rating,
         demographics,
+        styles,
     }
 }
 

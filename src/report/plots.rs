@@ -48,8 +48,13 @@ fn heat(p: f64) -> RGBColor {
 }
 
 fn short(label: &str) -> String {
-    let mut s: String = label.chars().take(8).collect();
-    if label.chars().count() > 8 {
+    cut(label, 8)
+}
+
+/// `label` capitalised, cut to `chars` characters (a dot marks the cut).
+fn cut(label: &str, chars: usize) -> String {
+    let mut s: String = label.chars().take(chars).collect();
+    if label.chars().count() > chars {
         s.push('.');
     }
     let mut c = s.chars();
@@ -119,17 +124,20 @@ fn f1_bars(name: &str, aus: &[u16], f1: &[f64]) -> Result<Vec<u8>, ReportError> 
     })
 }
 
-/// (condition, emotion, mean, sd) believability points.
-fn believability(name: &str, labels: &[String], series: &[(String, Vec<Option<(f64, f64)>>)]) -> Result<Vec<u8>, ReportError> {
+/// Mean ± SD points per label (x) and series (colour): believability per emotion and condition,
+/// or seed 004's ratings per type and style (Fig. 8, Fig. 10).
+/// `wide`: room for names of up to 17 characters (the laugh types) instead of 8.
+fn rating_points(name: &str, title: &str, labels: &[String], series: &[(String, Vec<Option<(f64, f64)>>)], wide: bool) -> Result<Vec<u8>, ReportError> {
     let palette = [RGBColor(49, 130, 189), RGBColor(158, 202, 225), RGBColor(230, 85, 13), RGBColor(253, 174, 107), RGBColor(49, 163, 84)];
-    let w = (200 + 70 * labels.len()).max(600) as u32;
+    let (per_label, chars) = if wide { (105, 17) } else { (70, 8) };
+    let w = (200 + per_label * labels.len()).max(600) as u32;
     // Studies ask 1-5 (the default) or 0-5 (HapFACS's reading): the axis starts at 0 only when a
     // mean minus its SD goes below 1.
     let lowest = series.iter().flat_map(|(_, points)| points.iter().flatten()).map(|(mean, sd)| mean - sd).fold(f64::INFINITY, f64::min);
     let y_min = if lowest < 1.0 { -0.5 } else { 0.5 };
     draw_png(name, w, 420, |root| {
         let mut chart = ChartBuilder::on(root)
-            .caption("Believability: mean ± SD per emotion and condition", font(18.0))
+            .caption(title, font(18.0))
             .margin(12)
             .x_label_area_size(40)
             .y_label_area_size(48)
@@ -142,7 +150,7 @@ fn believability(name: &str, labels: &[String], series: &[(String, Vec<Option<(f
             .x_labels(labels.len())
             .x_label_formatter(&|x| {
                 let i = x.round();
-                if (x - i).abs() < 1e-6 && i >= 0.0 && (i as usize) < labels.len() { short(&labels[i as usize]) } else { String::new() }
+                if (x - i).abs() < 1e-6 && i >= 0.0 && (i as usize) < labels.len() { cut(&labels[i as usize], chars) } else { String::new() }
             })
             .y_desc("rating")
             .label_style(font(11.0))
@@ -267,8 +275,24 @@ pub(super) fn all(report: &Report) -> Result<Vec<(String, Vec<u8>, String)>, Rep
             .collect();
         if !series.is_empty() {
             let name = "plot_believability.png".to_string();
-            out.push((name.clone(), believability(&name, &labels, &series)?, "Believability: mean with ±1 SD error bars.".into()));
+            let title = "Believability: mean ± SD per emotion and condition";
+            out.push((name.clone(), rating_points(&name, title, &labels, &series, false)?, "Believability: mean with ±1 SD error bars.".into()));
         }
+    }
+    for s in &report.styles {
+        let series: Vec<(String, Vec<Option<(f64, f64)>>)> = s
+            .styles
+            .iter()
+            .map(|style| {
+                let point = |label: &String| s.cells.iter().find(|c| &c.label == label && &c.style == style)?.stats.as_ref().map(|d| (d.mean, d.sd.unwrap_or(0.0)));
+                (style.clone(), s.labels.iter().map(point).collect())
+            })
+            .collect();
+        let name = format!("plot_styles_{}.png", s.scale.name());
+        let title = format!("{}: mean ± SD per label and style", s.scale.name());
+        let set = crate::study::labels::LabelSet::named(&s.label_set);
+        let names: Vec<String> = s.labels.iter().map(|l| set.map_or_else(|| l.clone(), |set| set.display(l))).collect();
+        out.push((name.clone(), rating_points(&name, &title, &names, &series, true)?, format!("{}: mean with ±1 SD error bars per label, one colour per style (seed 004 Fig. 8 / Fig. 10).", s.scale.name())));
     }
     Ok(out)
 }

@@ -6,6 +6,7 @@
 //! names only its own fields.
 
 mod design;
+mod styles;
 
 use super::Report;
 use super::table::{Cell, Column, Line, On, Pattern, Pivot, Row, Spread, Table, View};
@@ -63,6 +64,9 @@ pub(super) fn all(report: &Report) -> Vec<Table> {
         out.extend([recognition(r), table11(r), design::icc(r), group_tests(r), anova(r)]);
         out.extend([design::rm_anova(r), design::paired(r), design::between(r), design::post_hoc(r)]);
         out.extend(table14(r));
+    }
+    if !report.styles.is_empty() {
+        out.extend([styles::means(&report.styles), styles::anova(&report.styles), styles::scheffe(&report.styles)]);
     }
     if let Some(d) = &report.demographics {
         out.push(table6(d));

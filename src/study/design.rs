@@ -7,6 +7,7 @@
 //! group = "raters"                 # the `group` column of the exported responses
 //! stimuli = "../out/exp3"          # a built stimulus set, relative to this file
 //! media = "all"                    # all | image | video
+//! labels = "emfacs"                # the label set offered and described (study::labels; default emfacs)
 //! intensities = [100]              # peak intensities admitted, whole percent (default: all)
 //! trials_per_participant = 0       # 0 = every stimulus; n = a balanced share of n stimuli
 //! ratings_per_stimulus = 0         # with a share: completed ratings wanted per stimulus
@@ -16,6 +17,7 @@
 //! consent = "…"; instructions = "…"; debrief = "…"
 //!
 //! [emotion]    believability = true; believability_range = [1, 5]   # [0, 5]: HapFACS's reading
+//!              describe_labels = false                              # show each label's description
 //! [au_coding]  intensity = false; side = false; together = false   # together: an entry's video + stills, one trial
 //! [[rating.item]]  measure = "q1"; prompt = "Does the motion feel right?"; min = 0; max = 5
 //! [attention]  max_failures = 2; checks = [{ instruction = "…", measure = "emotion", value = "surprise" }]
@@ -34,6 +36,7 @@
 use serde::Deserialize;
 
 use super::arm::{Arm, check_arms};
+use super::labels::LabelSet;
 use super::measure::{Measure, Scale};
 pub use super::recruitment::{Platform, Recruitment, Source};
 
@@ -161,6 +164,9 @@ pub struct EmotionOptions {
     /// (`measure::Scale::Believability`) admits both readings.
     #[serde(default = "believability_range")]
     pub believability_range: [u8; 2],
+    /// Show each choice's declared description under its name (off: names only, as HapFACS).
+    #[serde(default)]
+    pub describe_labels: bool,
 }
 
 fn believability_range() -> [u8; 2] {
@@ -169,7 +175,7 @@ fn believability_range() -> [u8; 2] {
 
 impl Default for EmotionOptions {
     fn default() -> Self {
-        EmotionOptions { believability: false, believability_range: believability_range() }
+        EmotionOptions { believability: false, believability_range: believability_range(), describe_labels: false }
     }
 }
 
@@ -194,8 +200,9 @@ pub struct CodingOptions {
 pub struct RatingOptions {
     #[serde(default)]
     pub item: Vec<LikertItem>,
-    /// A description shown with each stimulus, by the manifest's emotion label (seed 004 shows
-    /// participants the expression's description; it is part of the stimulus there).
+    /// A description shown with each stimulus, by the manifest's label (seed 004 shows
+    /// participants the expression's description; it is part of the stimulus there). A
+    /// stimulus whose label has none here shows its label's declared description.
     #[serde(default)]
     pub descriptions: std::collections::BTreeMap<String, String>,
 }
@@ -211,6 +218,8 @@ struct RawDesign {
     stimuli: String,
     #[serde(default)]
     media: MediaFilter,
+    #[serde(default)]
+    labels: Option<String>,
     #[serde(default)]
     intensities: Vec<u32>,
     #[serde(default)]
@@ -260,6 +269,8 @@ pub struct StudyDesign {
     /// The stimulus set directory as written (relative to the design file).
     pub stimuli: String,
     pub media: MediaFilter,
+    /// The label set a forced choice offers and descriptions come from (`labels`, default EmFACS).
+    pub labels: LabelSet,
     /// The peak intensities admitted, in whole percent (empty = every one).
     pub intensities: Vec<u32>,
     /// 0 = every stimulus.
@@ -407,7 +418,11 @@ impl RawDesign {
         };
         check_intensities(&self.intensities)?;
         check_items(&items)?;
-        check_attention(self.task, &self.attention, &items)?;
+        let labels = match &self.labels {
+            Some(id) => LabelSet::find(id).map_err(|e| fail("labels", e.to_string()))?,
+            None => LabelSet::emfacs(),
+        };
+        check_attention(self.task, &self.attention, &items, labels)?;
         let sources = self.recruitment.checked_sources(&self.group)?;
         check_arms(&self.arm)?;
         Ok(StudyDesign {
@@ -417,6 +432,7 @@ impl RawDesign {
             group: self.group,
             stimuli: self.stimuli,
             media: self.media,
+            labels,
             intensities: self.intensities,
             trials_per_participant: self.trials_per_participant,
             ratings_per_stimulus: self.ratings_per_stimulus,
@@ -464,13 +480,13 @@ fn check_items(items: &[LikertItem]) -> Result<(), DesignError> {
     Ok(())
 }
 
-fn check_attention(task: TaskKind, policy: &AttentionPolicy, items: &[LikertItem]) -> Result<(), DesignError> {
+fn check_attention(task: TaskKind, policy: &AttentionPolicy, items: &[LikertItem], labels: LabelSet) -> Result<(), DesignError> {
     if policy.max_failures == 0 {
         return Err(fail("attention.max_failures", "must be at least 1"));
     }
     for (i, check) in policy.checks.iter().enumerate() {
         let field = format!("attention.checks[{}]", i + 1);
-        let possible = check.measure.value(&check.value, crate::facs::Catalog::built_in()).is_ok();
+        let possible = check.measure.value_in(&check.value, crate::facs::Catalog::built_in(), labels).is_ok();
         let ok = possible
             && match (task, check.measure) {
                 (TaskKind::Emotion, Measure::Emotion) | (TaskKind::AuCoding, Measure::Aus) => true,
@@ -530,6 +546,19 @@ debrief = "Thanks."
         assert_eq!((d.items[0].min, d.items[0].max), (0, 5));
         let e = StudyDesign::from_toml(&format!("{BASE}[emotion]\nbelievability = true\nbelievability_range = [0, 7]\n")).unwrap_err();
         assert_eq!(e.field, "rating.item[1] (believability)", "{e}");
+    }
+
+    #[test]
+    fn a_design_names_its_label_set() {
+        let d = StudyDesign::from_toml(BASE).unwrap();
+        assert_eq!(d.labels, LabelSet::emfacs(), "a design without labels means EmFACS");
+        let laughs = StudyDesign::from_toml(&format!("labels = \"laughs\"\n{BASE}[attention]\nchecks = [{{ instruction = \"x\", measure = \"emotion\", value = \"sly_smile\" }}]\n")).unwrap();
+        assert_eq!(laughs.labels.id(), "laughs");
+        let e = StudyDesign::from_toml(&format!("labels = \"laughs\"\n{BASE}[attention]\nchecks = [{{ instruction = \"x\", measure = \"emotion\", value = \"fear\" }}]\n")).unwrap_err();
+        assert_eq!(e.field, "attention.checks[1]", "{e}");
+        let e = StudyDesign::from_toml(&format!("labels = \"moods\"\n{BASE}")).unwrap_err();
+        assert_eq!(e.field, "labels", "{e}");
+        assert!(e.message.contains("emfacs, laughs"), "{e}");
     }
 
     #[test]

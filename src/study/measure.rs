@@ -7,7 +7,7 @@
 //! reader, the exports and their codebook, and the simulator. **Invariant:** a measure name that
 //! is not in [`DECLARATIONS`] is not a measure anywhere (`every_consumer_reads_one_table`).
 
-use crate::facs::{Catalog, EmotionTable, Expression};
+use crate::facs::{Catalog, Expression};
 
 /// A rating scale (a Likert item) and its allowed integer range. In files by its declared name.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize, serde::Deserialize)]
@@ -50,19 +50,17 @@ pub enum About {
     Participant,
 }
 
-/// A closed set of answer labels.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum LabelSet {
-    /// The EmFACS labels in table order (neutral included), then `none`.
-    Emotion,
-}
+/// A closed set of answer labels: declared as data in `study::labels` (`stimuli/labels/*.toml`
+/// and the user's own files); a study's forced choice offers its set's labels.
+pub use super::labels::LabelSet;
 
 /// The values a measure takes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Kind {
     /// FACS notation; empty (or `0`) for no AU.
     AuNotation,
-    Labels(LabelSet),
+    /// One answer of the study's label set ([`LabelSet`]; EmFACS when it names none).
+    Labels,
     /// Whole numbers `min..=max`.
     Likert { min: u8, max: u8 },
     /// A number of years in `0..=max`.
@@ -86,7 +84,7 @@ pub struct Declaration {
 /// Every measure, in the order exports list them.
 pub const DECLARATIONS: [Declaration; 10] = [
     declare(Measure::Aus, "aus", About::Stimulus, Kind::AuNotation, "AUs the coder marked, FACS notation (L/R = side, A-E = intensity); empty = no AU"),
-    declare(Measure::Emotion, "emotion", About::Stimulus, Kind::Labels(LabelSet::Emotion), "Emotion chosen"),
+    declare(Measure::Emotion, "emotion", About::Stimulus, Kind::Labels, "Label chosen from the study's label set (EmFACS emotions unless the study names another)"),
     // HapFACS reads "0: not believable at all, 5: very believable"; studies ask 1-5 by default.
     declare(Measure::Scale(Scale::Believability), "believability", About::Stimulus, Kind::Likert { min: 0, max: 5 }, "How believable the expression is"),
     declare(Measure::Scale(Scale::DescriptionMatch), "description_match", About::Stimulus, Kind::Likert { min: 0, max: 5 }, "How well the stimulus matches its description"),
@@ -133,8 +131,8 @@ impl TryFrom<String> for Scale {
 #[derive(Debug, Clone, PartialEq)]
 pub enum Value {
     Aus(Expression),
-    /// Index into the label set's [`LabelSet::labels`].
-    Label(usize),
+    /// A label set and the index into its [`LabelSet::labels`].
+    Label(LabelSet, usize),
     Likert(u8),
     Years(f64),
     Text(String),
@@ -168,11 +166,17 @@ impl Measure {
         DECLARATIONS.iter().map(|d| d.name).collect::<Vec<_>>().join(sep)
     }
 
-    /// Parses `text` as a value of this measure, or says why it is not one.
+    /// Parses `text` as a value of this measure, labels from the EmFACS set, or says why it is
+    /// not one.
     pub fn value(self, text: &str, catalog: &Catalog) -> Result<Value, String> {
+        self.value_in(text, catalog, LabelSet::emfacs())
+    }
+
+    /// Parses `text` as a value of this measure, labels from `labels`, or says why it is not one.
+    pub fn value_in(self, text: &str, catalog: &Catalog, labels: LabelSet) -> Result<Value, String> {
         match self.declaration().kind {
             Kind::AuNotation => catalog.parse(text).map(Value::Aus).map_err(|e| e.to_string()),
-            Kind::Labels(set) => set.position(text).map(Value::Label).ok_or_else(|| format!("\"{text}\" is not {} (one of {})", set.what(), set.labels().join(", "))),
+            Kind::Labels => labels.position(text).map(|i| Value::Label(labels, i)).ok_or_else(|| format!("\"{text}\" is not a label of the {} set (one of {})", labels.id(), labels.labels().join(", "))),
             Kind::Likert { min, max } => text
                 .parse::<u8>()
                 .ok()
@@ -222,38 +226,17 @@ impl Demographic {
     }
 }
 
-impl LabelSet {
-    /// The answer labels, in the order forms show them and reports count them.
-    pub fn labels(self) -> &'static [String] {
-        static EMOTION: std::sync::OnceLock<Vec<String>> = std::sync::OnceLock::new();
-        match self {
-            LabelSet::Emotion => EMOTION.get_or_init(|| EmotionTable::built_in().iter().map(|e| e.label.clone()).chain(["none".to_string()]).collect()),
-        }
-    }
-
-    /// The index of `label`, if it is one of the set's.
-    pub fn position(self, label: &str) -> Option<usize> {
-        self.labels().iter().position(|l| l == label)
-    }
-
-    fn what(self) -> &'static str {
-        match self {
-            LabelSet::Emotion => "an emotion label",
-        }
-    }
-}
-
 impl Value {
     /// The value as the long format writes it.
     pub fn text(&self, measure: Measure) -> String {
         match (self, measure.declaration().kind) {
             (Value::Aus(e), _) if e.is_neutral() => String::new(),
             (Value::Aus(e), _) => e.to_string(),
-            (Value::Label(i), Kind::Labels(set)) => set.labels().get(*i).cloned().unwrap_or_default(),
+            (Value::Label(set, i), Kind::Labels) => set.labels().get(*i).cloned().unwrap_or_default(),
             (Value::Likert(v), _) => v.to_string(),
             (Value::Years(y), _) => y.to_string(),
             (Value::Text(t), _) => t.clone(),
-            (Value::Label(i), _) => i.to_string(),
+            (Value::Label(_, i), _) => i.to_string(),
         }
     }
 }
@@ -290,13 +273,17 @@ mod tests {
         assert!(age.value("121", catalog).unwrap_err().contains("0-120"));
         let emotion = Measure::Emotion.value("none", catalog).unwrap();
         assert_eq!(emotion.text(Measure::Emotion), "none");
-        assert!(Measure::Emotion.value("joy", catalog).unwrap_err().starts_with("\"joy\" is not an emotion label (one of "));
+        assert!(Measure::Emotion.value("joy", catalog).unwrap_err().starts_with("\"joy\" is not a label of the emfacs set (one of "));
+        let laughs = LabelSet::find("laughs").unwrap();
+        let sly = Measure::Emotion.value_in("sly_smile", catalog, laughs).unwrap();
+        assert_eq!(sly.text(Measure::Emotion), "sly_smile");
+        assert!(Measure::Emotion.value_in("happiness", catalog, laughs).is_err());
         let aus = Measure::Aus.value("2+1B", catalog).unwrap();
         assert_eq!(aus.text(Measure::Aus), catalog.parse("2+1B").unwrap().to_string());
         assert_eq!(Measure::Aus.value("", catalog).unwrap().text(Measure::Aus), "");
         assert!(Measure::Aus.value("1+77", catalog).is_err());
         // The emotion task's choices: the nine EmFACS emotions, neutral, and none.
-        let labels = LabelSet::Emotion.labels();
+        let labels = LabelSet::emfacs().labels();
         assert_eq!(labels.len(), 11);
         assert!(labels.contains(&"neutral".to_string()) && labels.last().map(String::as_str) == Some("none"));
     }

@@ -13,6 +13,7 @@ pub mod arm;
 pub mod assign;
 pub mod design;
 pub mod entry;
+pub mod labels;
 pub mod measure;
 pub mod session;
 pub mod task;

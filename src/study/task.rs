@@ -140,7 +140,7 @@ impl Submission {
             TaskKind::Emotion => {
                 let name = Measure::Emotion.name();
                 let label = fields.take_one(name)?.ok_or_else(|| fail(name, "choose one emotion"))?;
-                let value = Measure::Emotion.value(label, Catalog::built_in()).map_err(|_| fail(name, format!("\"{label}\" is not one of the choices")))?;
+                let value = Measure::Emotion.value_in(label, Catalog::built_in(), design.labels).map_err(|_| fail(name, format!("\"{label}\" is not one of the choices")))?;
                 answer.push(Judgement { measure: Measure::Emotion, value });
             }
             TaskKind::AuCoding => answer.push(Judgement { measure: Measure::Aus, value: Value::Aus(coded_aus(&mut fields, design)?) }),
@@ -241,6 +241,7 @@ pub fn passes_check(answer: &Answer, measure: Measure, expected: &str) -> bool {
     let Some(given) = answer.get(measure) else { return false };
     match (given, measure.value(expected, Catalog::built_in())) {
         (Value::Aus(g), Ok(Value::Aus(e))) => g.codes() == e.codes(),
+        (Value::Label(set, _), _) => measure.value_in(expected, Catalog::built_in(), *set).is_ok_and(|e| *given == e),
         (given, Ok(expected)) => *given == expected,
         (_, Err(_)) => false,
     }

@@ -359,6 +359,21 @@ fn capitalised(text: &str) -> String {
     chars.next().map(|c| c.to_uppercase().chain(chars).collect()).unwrap_or_default()
 }
 
+/// The forced choice's options: the study's label set as declared (name, and the description
+/// when the design asks for it).
+fn label_choices(design: &crate::study::StudyDesign) -> Vec<serde_json::Value> {
+    let set = design.labels;
+    let describe = |answer: &str| design.emotion.describe_labels.then(|| set.label(answer).map(|l| l.description.clone())).flatten();
+    set.labels().iter().map(|c| json!({ "value": c, "label": set.display(c), "description": describe(c) })).collect()
+}
+
+/// The description a rating trial shows: the design's own for the stimulus's label, else the
+/// label's declared description.
+fn stimulus_description(design: &crate::study::StudyDesign, label: &str) -> Option<String> {
+    let declared = || crate::study::labels::Qualified::split(label).resolve().ok().map(|(_, l)| l.description.clone()).filter(|d| !d.is_empty());
+    design.rating.descriptions.get(label).cloned().or_else(declared)
+}
+
 async fn trial_page(State(app): State<AppState>, token: ParticipationToken) -> Result<Response, WebError> {
     let (_, study, trials) = match at_step(&app, &token, "/trial").await? {
         Ok(v) => v,
@@ -372,8 +387,8 @@ async fn trial_page(State(app): State<AppState>, token: ParticipationToken) -> R
     let stimulus = shown.first().ok_or_else(|| WebError::Internal { context: format!("stimulus {} missing from the study", trial.stimulus_id), source: None })?;
     let done = trials.iter().filter(|t| t.answered).count();
     let attention = trial.check_index.and_then(|i| design.attention.checks.get(i)).map(|c| c.instruction.clone());
-    let description = (design.task == TaskKind::Rating).then(|| design.rating.descriptions.get(&stimulus.emotion).cloned()).flatten();
-    let choices: Vec<_> = LabelSet::Emotion.labels().iter().map(|c| json!({ "value": c, "label": if c == "none" { "None of these".to_string() } else { capitalised(&c) } })).collect();
+    let description = (design.task == TaskKind::Rating).then(|| stimulus_description(design, &stimulus.emotion)).flatten();
+    let choices = label_choices(design);
     let items: Vec<_> = design
         .items
         .iter()
@@ -392,6 +407,7 @@ async fn trial_page(State(app): State<AppState>, token: ParticipationToken) -> R
         "description": description,
         "task": design.task.as_str(),
         "choices": choices,
+        "choice_question": if design.labels == LabelSet::emfacs() { "Which emotion does this face show?" } else { "Which of these does this face show?" },
         "au_groups": if design.task == TaskKind::AuCoding { au_groups() } else { json!([]) },
         "coding_intensity": design.au_coding.intensity,
         "coding_side": design.au_coding.side,

@@ -16,18 +16,18 @@ use crate::browser::{Browser, TIMEOUT};
 use crate::server::*;
 
 /// A JavaScript string literal.
-fn js_str(text: &str) -> String {
+pub(crate) fn js_str(text: &str) -> String {
     serde_json::to_string(text).unwrap()
 }
 
 /// Waits until the browser shows a loaded page whose path ends with `suffix`.
-async fn wait_for_page(browser: &Browser, suffix: &str) {
+pub(crate) async fn wait_for_page(browser: &Browser, suffix: &str) {
     let js = format!("document.readyState === 'complete' && location.pathname.endsWith({})", js_str(suffix));
     browser.wait_for(&js, TIMEOUT).await;
 }
 
 /// The path of the page the browser shows.
-async fn path(browser: &Browser) -> String {
+pub(crate) async fn path(browser: &Browser) -> String {
     browser.execute("return location.pathname;").await.as_str().unwrap_or_default().to_string()
 }
 
@@ -40,7 +40,7 @@ async fn token(browser: &Browser) -> String {
 }
 
 /// Clicks the label that holds the input `input` (as a participant taps the whole choice).
-async fn tap(browser: &Browser, input: &str) {
+pub(crate) async fn tap(browser: &Browser, input: &str) {
     browser.click(&format!("label:has(> {input})")).await;
     let checked = browser.execute(&format!("return document.querySelector({}).checked;", js_str(input))).await;
     assert_eq!(checked, true, "tapping the label of {input} did not check it");
@@ -53,7 +53,7 @@ async fn choose(browser: &Browser, css: &str, value: &str) {
 
 /// From the landing page of `slug` to the first trial: start, consent, demographics (when the
 /// study asks), instructions. Returns the participant's token.
-async fn start_session(browser: &Browser, server: &Server, slug: &str, demographics: bool) -> String {
+pub(crate) async fn start_session(browser: &Browser, server: &Server, slug: &str, demographics: bool) -> String {
     browser.goto(&server.url(&format!("/s/{slug}"))).await;
     browser.click("#start").await;
     wait_for_page(browser, "/consent").await;
@@ -76,16 +76,16 @@ async fn start_session(browser: &Browser, server: &Server, slug: &str, demograph
 
 /// What a trial page shows, as read from the page.
 #[derive(Debug, Clone)]
-struct TrialView {
-    position: i64,
-    media: String,
+pub(crate) struct TrialView {
+    pub(crate) position: i64,
+    pub(crate) media: String,
     practice: bool,
     attention: Option<String>,
     progress: String,
     key: String,
 }
 
-async fn trial_view(browser: &Browser) -> TrialView {
+pub(crate) async fn trial_view(browser: &Browser) -> TrialView {
     let v = browser
         .execute(
             "const f = document.getElementById('trial');
@@ -109,7 +109,7 @@ async fn trial_view(browser: &Browser) -> TrialView {
 
 /// Clicks Next and waits for the next page: another trial view or the done page. Fails at once
 /// with the page's message when the answer is refused.
-async fn submit(browser: &Browser, view: &TrialView) {
+pub(crate) async fn submit(browser: &Browser, view: &TrialView) {
     browser.click("#next").await;
     let js = format!(
         "const f = document.getElementById('trial'); const e = document.querySelector('.error');
@@ -128,7 +128,7 @@ async fn submit(browser: &Browser, view: &TrialView) {
 }
 
 /// A video trial: waits until the video has played to its end, as a patient participant does.
-async fn watch_to_the_end(browser: &Browser) {
+pub(crate) async fn watch_to_the_end(browser: &Browser) {
     browser.wait_for("document.getElementById('stimulus').ended", TIMEOUT).await;
 }
 

@@ -1,0 +1,187 @@
+//! Seed 004's two rating templates (`studies/laugh-description.toml`, `studies/laugh-motion.toml`)
+//! end to end: a set of 26 short videos labelled from the `laughs` label set, half of them in a
+//! second style, a participant who answers by clicking in headless Chromium, more participants
+//! over HTTP, and `facslab report --study`, whose report gives the means by type and style, the
+//! two-way ANOVA (Type II and III) and the Scheffé pairs.
+//!
+//! The clips are ordinary FACS expressions (one per laugh type, two identities), relabelled in
+//! the built set's manifest: the laugh engine is not needed to exercise the platform, and any
+//! clip can stand in the "real recording" slot of study 1 (the user supplies those).
+
+use std::collections::BTreeMap;
+
+use crate::browser::Browser;
+use crate::cli::facslab_ok;
+use crate::e2e::{path, start_session, submit, tap, trial_view, wait_for_page, watch_to_the_end};
+use crate::server::*;
+
+/// One expression per laugh type (the label set's declared order), as the stand-in clips.
+const EXPRESSIONS: [&str; 13] = ["6+12+25+27", "6+12+25+26", "6+12+25", "6+12", "12+17+24", "1+4+12", "1+2+5+12+25", "1+2+4+12", "4+6+12", "12+43", "12+14+54", "12+20", "12+25+26"];
+
+/// The laugh types in the `laughs` set's order.
+const TYPES: [&str; 13] = [
+    "uproarious_laughter",
+    "laughter",
+    "open_mouthed_smile",
+    "closed_mouth_smile",
+    "stifled_smile",
+    "melancholy_smile",
+    "eager_smile",
+    "ingratiating_smile",
+    "sly_smile",
+    "debauched_smile",
+    "abashed_smile",
+    "false_smile",
+    "false_laughter",
+];
+
+/// The set: the 13 clips on `wm1` (first style) and on `wf1` (second style), 64 × 64 at 5 fps.
+fn spec() -> String {
+    let list = EXPRESSIONS.iter().map(|e| format!("\"{e}\"")).collect::<Vec<_>>().join(", ");
+    let group = |name: &str, identity: &str| format!("[[group]]\nname = \"{name}\"\nexpressions = [{list}]\nvideo_peaks = [1.0]\ntiming = {{ onset_s = 0.2, apex_s = 0.2, offset_s = 0.2 }}\nidentity = \"{identity}\"\n\n");
+    format!("name = \"laughs-test\"\nseed = 14\nsize = [64, 64]\nfps = 5\n\n{}{}", group("first", "wm1"), group("second", "wf1"))
+}
+
+/// Relabels the built set: each clip's `emotion` becomes `laughs:<type>` of its expression, and
+/// manifest.csv gains the `style` column (`wm1` → `first`, `wf1` → `second`). Returns the
+/// (type, style) of each stimulus id.
+fn relabel(lab: &Lab, styles: [&str; 2]) -> BTreeMap<String, (String, String)> {
+    let set = lab.path().join("set");
+    let csv = std::fs::read_to_string(set.join("manifest.csv")).unwrap();
+    let mut lines = csv.lines();
+    let head: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| head.iter().position(|h| *h == name).unwrap();
+    let (c_id, c_expr, c_emotion, c_identity) = (col("stimulus_id"), col("expression"), col("emotion"), col("identity"));
+    let mut out = format!("{},style\n", head.join(","));
+    let mut facts = BTreeMap::new();
+    for line in lines {
+        let mut cells: Vec<String> = line.split(',').map(str::to_string).collect();
+        let t = EXPRESSIONS.iter().position(|e| *e == cells[c_expr].replace("@1", "")).unwrap_or_else(|| panic!("unknown clip {line}"));
+        let style = if cells[c_identity] == "wm1" { styles[0] } else { styles[1] };
+        cells[c_emotion] = format!("laughs:{}", TYPES[t]);
+        facts.insert(cells[c_id].clone(), (TYPES[t].to_string(), style.to_string()));
+        out.push_str(&format!("{},{style}\n", cells.join(",")));
+    }
+    std::fs::write(set.join("manifest.csv"), out).unwrap();
+    let json = std::fs::read_to_string(set.join("manifest.json")).unwrap();
+    let mut rows: Vec<serde_json::Value> = serde_json::from_str(&json).unwrap();
+    for row in &mut rows {
+        let (t, _) = &facts[row["stimulus_id"].as_str().unwrap()];
+        row["emotion"] = format!("laughs:{t}").into();
+    }
+    std::fs::write(set.join("manifest.json"), serde_json::to_string_pretty(&rows).unwrap()).unwrap();
+    assert_eq!(facts.len(), 26);
+    facts
+}
+
+/// The rating a participant over HTTP gives at `position` to a clip of type `t` (read from the
+/// description the page shows; the page never names the stimulus), so the ratings vary by type
+/// and by participant.
+fn rating(participant: usize, position: i64, t: usize, scale: &str) -> u8 {
+    (1 + (t % 3) + (participant + position as usize + scale.len()) % 3) as u8
+}
+
+/// The type whose declared description the trial page shows.
+fn shown_type(page: &str) -> usize {
+    let page = page.replace("&#x27;", "'").replace("&#39;", "'").replace("&quot;", "\"").replace("&amp;", "&");
+    let laughs = facslab::study::labels::LabelSet::find("laughs").unwrap();
+    TYPES.iter().position(|t| page.contains(&laughs.label(t).unwrap().description)).unwrap_or_else(|| panic!("no type's description on the page: {}", page.lines().find(|l| l.contains("description")).unwrap_or("")))
+}
+
+/// Answers every trial on screen by clicking, checking that each shows a description; returns
+/// the trials answered. Screenshots the first trial into `shots` (desktop and phone size).
+async fn click_through(browser: &Browser, scales: &[&str], shots: &std::path::Path, name: &str) -> usize {
+    let mut done = 0;
+    while path(browser).await.ends_with("/trial") {
+        let view = trial_view(browser).await;
+        let description = browser.text(".description").await;
+        assert!(description.len() > 40, "every laugh trial shows its type's description: {description:?}");
+        if done == 0 {
+            browser.screenshot(shots.join(format!("{name}-trial-desktop.png"))).await;
+            browser.set_window_size(390, 844).await;
+            browser.screenshot(shots.join(format!("{name}-trial-phone.png"))).await;
+            browser.set_window_size(1280, 900).await;
+        }
+        assert_eq!(view.media, "video");
+        watch_to_the_end(browser).await;
+        for (i, scale) in scales.iter().enumerate() {
+            tap(browser, &format!("input[name={scale}][value=\"{}\"]", (view.position as usize + i) % 6)).await;
+        }
+        submit(browser, &view).await;
+        done += 1;
+    }
+    done
+}
+
+/// Participants over HTTP: each answers its trials with [`rating`] of the stimulus shown.
+async fn http_participants(server: &Server, slug: &str, scales: &[&str], count: usize) {
+    let http = client();
+    for p in 0..count {
+        let token = start(&http, server, slug, &[]).await;
+        consent_and_demographics(&http, server, &token).await;
+        while let Some(position) = current_position(&http, server, &token).await {
+            let page = http.get(server.url(&format!("/p/{token}/trial"))).send().await.unwrap().text().await.unwrap();
+            let t = shown_type(&page);
+            let values: Vec<(String, String)> = scales.iter().map(|s| (s.to_string(), rating(p, position, t, s).to_string())).collect();
+            let fields: Vec<(&str, &str)> = values.iter().map(|(s, v)| (s.as_str(), v.as_str())).collect();
+            let (status, ack) = save(&http, server, &token, position, &format!("k-{token}-{position}"), &fields).await;
+            assert_eq!(status, 200, "{ack}");
+        }
+    }
+}
+
+/// `facslab report --study` into `out`; returns the report's styles tables as text.
+fn report(lab: &Lab, slug: &str, out: &str) -> (String, String, String) {
+    facslab_ok(lab.path(), &["report", "--study", slug, "--db", &lab.db, "-o", out]);
+    let read = |f: &str| std::fs::read_to_string(lab.path().join(out).join(f)).unwrap_or_else(|e| panic!("{f}: {e}"));
+    (read("styles_means.csv"), read("styles_anova.csv"), read("styles_scheffe.csv"))
+}
+
+/// Checks the ANOVA file has, per scale, Type II and Type III rows of the three terms with F and p.
+fn check_anova(anova: &str, scales: &[&str]) {
+    for scale in scales {
+        for ty in ["II", "III"] {
+            for term in ["style", "label", "style:label"] {
+                let row = anova.lines().find(|l| l.starts_with(&format!("{scale},{ty},{term},"))).unwrap_or_else(|| panic!("no {scale} {ty} {term} row:\n{anova}"));
+                let cells: Vec<&str> = row.split(',').collect();
+                assert!(cells[5].parse::<f64>().is_ok() && cells[6].parse::<f64>().is_ok_and(|p| (0.0..=1.0).contains(&p)), "{row}");
+            }
+        }
+    }
+}
+
+#[tokio::test(flavor = "multi_thread")]
+async fn e2e_laugh_templates_run_in_the_browser_and_report_anova_and_scheffe() {
+    let Some(browser) = Browser::start().await else { return };
+    let shots = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("laugh-study");
+    std::fs::create_dir_all(&shots).unwrap();
+    let shipped = |f: &str| std::fs::read_to_string(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("studies").join(f)).unwrap();
+    for (template, styles, scales) in [("laugh-motion.toml", ["realistic", "cartoon"], &["q1", "q2"][..]), ("laugh-description.toml", ["real", "realistic"], &["description_match"][..])] {
+        let lab = Lab::with_set(&spec());
+        let facts = relabel(&lab, styles);
+        assert_eq!(facts.values().filter(|(_, s)| s == styles[1]).count(), 13, "half the clips in the second style");
+        let design = shipped(template);
+        let slug = design.lines().find_map(|l| l.strip_prefix("slug = ")).unwrap().trim_matches('"').to_string();
+        lab.study(&slug, &design);
+        let server = lab.serve();
+        start_session(&browser, &server, &slug, true).await;
+        let clicked = click_through(&browser, scales, &shots, &slug).await;
+        assert_eq!(clicked, if slug == "laugh-motion" { 26 } else { 13 }, "{slug}: trials per participant");
+        wait_for_page(&browser, "/done").await;
+        http_participants(&server, &slug, scales, 7).await;
+        let (means, anova, scheffe) = report(&lab, &slug, "report");
+        for t in TYPES {
+            for style in styles {
+                assert!(means.lines().any(|l| l.contains(&format!(",{t},{style},"))), "{slug}: no mean of {t} {style}:\n{means}");
+            }
+        }
+        check_anova(&anova, scales);
+        let pairs = scheffe.lines().filter(|l| l.contains(",yes,") || l.contains(",no,")).count();
+        assert_eq!(pairs, scales.len() * 325, "{slug}: every pair of the 26 cells per scale:\n{}", &scheffe[..scheffe.len().min(2000)]);
+        browser.goto(&format!("file://{}", lab.path().join("report/report.html").display())).await;
+        browser.screenshot(shots.join(format!("{slug}-report.png"))).await;
+        assert!(browser.text("body").await.contains("Two-way ANOVA: style × label"), "{slug}: the report page shows the ANOVA");
+    }
+    eprintln!("screenshots in {}", shots.display());
+    browser.close().await;
+}
