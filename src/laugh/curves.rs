@@ -128,6 +128,25 @@ impl Curves {
         Ok(())
     }
 
+    /// Every AU the curves move, at its highest value (rounded to a thousandth), in track
+    /// order: what the take shows at its peak, for a manifest.
+    pub fn peak_expression(&self, catalog: &Catalog) -> Result<crate::facs::Expression, crate::facs::NotationError> {
+        let parts: Vec<String> = self
+            .tracks
+            .iter()
+            .filter_map(|t| {
+                let peak = (t.values.iter().copied().fold(0.0, f64::max) * 1000.0).round() / 1000.0;
+                let side = match t.side {
+                    Laterality::Both => "",
+                    Laterality::Left => "L",
+                    Laterality::Right => "R",
+                };
+                (peak > 0.0).then(|| format!("{side}{}@{peak}", t.au))
+            })
+            .collect();
+        catalog.parse(&if parts.is_empty() { "0".to_string() } else { parts.join("+") })
+    }
+
     /// The engine timeline that plays these curves on `identity` at `size`: frame `f` shows
     /// sample `f` of every track (the curves must be valid).
     pub fn to_timeline(&self, identity: &str, size: (u32, u32)) -> Timeline {

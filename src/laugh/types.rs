@@ -311,6 +311,17 @@ impl LaughType {
 mod tests {
     use super::*;
 
+    /// The laugh types are declared twice for two readers: here how each is performed, in the
+    /// `laughs` label set (stimuli/labels/laughs.toml) what raters read. Ids and names agree.
+    #[test]
+    fn the_laughs_label_set_names_the_same_types_in_the_same_order() {
+        let set = crate::study::labels::LabelSet::named("laughs").expect("the laughs label set is declared");
+        let labels: Vec<(String, String)> =
+            set.labels().iter().filter_map(|id| set.label(id)).map(|l| (l.id.clone(), l.name.clone())).collect();
+        let types: Vec<(String, String)> = LaughTable::built_in().iter().map(|t| (t.id.clone(), t.name.clone())).collect();
+        assert_eq!(labels, types);
+    }
+
     #[test]
     fn the_built_in_table_has_the_thirteen_types_in_the_seeds_order() {
         let table = LaughTable::built_in();

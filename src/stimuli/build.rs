@@ -186,6 +186,7 @@ fn planned_row(spec: &SetSpec, entry: &Entry, id: &str, dither: &str) -> Manifes
         set_seed: spec.seed,
         engine_version: engine_version(&spec.look),
         dither: dither.to_string(),
+        style: entry.style.map_or_else(String::new, |s| s.name().to_string()),
     };
     match &entry.content {
         Content::Image(_) => ManifestRow { media: Media::Image, file: format!("media/{id}.png"), ..base },
@@ -365,7 +366,8 @@ fn render_entry(
 ) -> Result<String, BuildError> {
     let fail = |message: String| BuildError::Render { entry: entry.origin.clone(), message };
     let identity = IdentityTable::active().get(&entry.identity).map_err(|e| fail(e.to_string()))?;
-    let settings = FrameSettings { width: spec.size.0, height: spec.size.1, threads: Some(1), look: spec.look, ..Default::default() };
+    let style = entry.style.unwrap_or_default();
+    let settings = FrameSettings { width: spec.size.0, height: spec.size.1, threads: Some(1), look: spec.look, style };
     match &entry.content {
         Content::Image(expression) if spec.look.backdrop == Backdrop::Transparent => {
             // RGBA stills are not shared with videos (which have no alpha).

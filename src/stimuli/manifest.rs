@@ -152,6 +152,10 @@ pub struct ManifestRow {
     /// manifests written before sets were dithered).
     #[serde(default)]
     pub dither: String,
+    /// How the face is drawn (`realistic`, `cartoon`) where a set compares styles (laugh
+    /// groups); empty otherwise, and then the CSV has no `style` column at all.
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub style: String,
 }
 
 /// True when `file` names a file directly under the set's `media/` directory (no `..`, no
@@ -193,11 +197,24 @@ impl ManifestRow {
     }
 }
 
-/// `manifest.csv`: a header line with [`COLUMNS`], then one line per row.
+/// The optional last column, written only when some row names a style.
+pub const STYLE_COLUMN: &str = "style";
+
+/// `manifest.csv`: a header line with [`COLUMNS`] (and [`STYLE_COLUMN`] when a row has a
+/// style), then one line per row.
 pub fn to_csv(rows: &[ManifestRow]) -> String {
-    let mut out = crate::tabular::line(COLUMNS);
+    let styled = rows.iter().any(|r| !r.style.is_empty());
+    let mut header: Vec<&str> = COLUMNS.to_vec();
+    if styled {
+        header.push(STYLE_COLUMN);
+    }
+    let mut out = crate::tabular::line(header);
     for row in rows {
-        crate::tabular::record(&mut out, row.csv_fields());
+        let mut fields = row.csv_fields();
+        if styled {
+            fields.push(row.style.clone());
+        }
+        crate::tabular::record(&mut out, fields);
     }
     out
 }
@@ -289,7 +306,22 @@ mod tests {
             set_seed: 7,
             engine_version: "0.1.0".into(),
             dither: "0123456789abcdef".into(),
+            style: String::new(),
         }
+    }
+
+    #[test]
+    fn the_style_column_is_written_only_when_a_row_has_a_style() {
+        let plain = to_csv(&[row()]);
+        assert!(!plain.lines().next().unwrap().contains(STYLE_COLUMN), "{plain}");
+        assert!(!to_json(&[row()]).contains("\"style\""));
+        let styled = [row(), ManifestRow { style: "cartoon".into(), ..row() }];
+        let csv = to_csv(&styled);
+        let mut lines = csv.lines();
+        assert!(lines.next().unwrap().ends_with(",dither,style"), "{csv}");
+        assert!(lines.next().unwrap().ends_with(",0123456789abcdef,"), "{csv}");
+        assert!(lines.next().unwrap().ends_with(",0123456789abcdef,cartoon"), "{csv}");
+        assert_eq!(from_json(&to_json(&styled)).unwrap(), styled.to_vec());
     }
 
     #[test]

@@ -22,7 +22,17 @@
 //! timing = { onset_s = 1.0, apex_s = 1.0, offset_s = 1.0, ramp = "linear" }   # the default
 //! identity = "rotate"             # or "each" (every identity) or one identity id
 //! # speak = { sentences = ["…", …], voice = { name = "en-us", rate_wpm = 175, pitch = 50 } }
+//!
+//! [[group]]
+//! name = "laughs"
+//! laughs = "all"                  # or a list of ids of stimuli/laughs/types.toml
+//! styles = ["realistic", "cartoon"]   # the default is ["realistic"]
+//! video_peaks = [1.0]
 //! ```
+//!
+//! A group with `laughs` makes performed laugh and smile videos (see [`crate::laugh`]): each
+//! type, on each of its people, one take seeded by the set's seed and its position, drawn in each
+//! style from the same curves; the manifest labels it `laughs:<id>` and names its style.
 //!
 //! A group with `speak` makes speaking videos (see [`crate::speech`]): the face holds the item's
 //! expression at each peak while it says a sentence, the sentences dealt out in an order shuffled
@@ -39,6 +49,8 @@ use crate::engine::identity::IdentityTable;
 use crate::engine::look::{Backdrop, Look};
 use crate::engine::timeline::{ClipTiming, Timeline};
 use crate::facs::{AppraisalTable, Catalog, EmotionTable, Expression};
+use crate::engine::Style;
+use crate::laugh::{LaughTable, Take};
 use crate::speech::Staging;
 
 /// The eight evaluation identities, in rotation order.
@@ -112,6 +124,12 @@ struct RawGroup {
     identity: Option<String>,
     #[serde(default)]
     speak: Option<RawSpeak>,
+    /// Laugh and smile types of seed 004 (`"all"` or ids of `stimuli/laughs/types.toml`).
+    #[serde(default)]
+    laughs: Option<Selection>,
+    /// For `laughs`: the avatar styles, each type drawn in each (default `["realistic"]`).
+    #[serde(default)]
+    styles: Option<Vec<String>>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -161,6 +179,9 @@ pub struct Entry {
     pub emotion: String,
     /// Peak intensity in [0, 1].
     pub intensity: f64,
+    /// How the face is drawn, named in the manifest; `None` (every group but `laughs`): the
+    /// realistic face, and no style column.
+    pub style: Option<Style>,
 }
 
 /// A validated stimulus set.
@@ -264,6 +285,15 @@ impl SetSpec {
         let mut frames = 0usize;
         for (g, group) in raw.group.iter().enumerate() {
             let gname = format!("group {} \"{}\"", g + 1, group.name);
+            if let Some(laughs) = &group.laughs {
+                let staging = Staging { fps, identity: "", size: (size[0], size[1]), seed: raw.seed };
+                for entry in laugh_entries(group, laughs, &gname, &rotation, staging, entries.len(), catalog)? {
+                    frames += entry.frames();
+                    check_size(entries.len() + 1, frames)?;
+                    entries.push(entry);
+                }
+                continue;
+            }
             let items = group_items(group, &gname, catalog)?;
             let timing = group.timing.unwrap_or_default();
             check_timing(&timing).map_err(|m| fail(&gname, m))?;
@@ -325,6 +355,7 @@ impl SetSpec {
                             expression: union(&steps, catalog).map_err(|e| fail(&item_name, e.to_string()))?.to_string(),
                             emotion: item.emotion.clone(),
                             intensity: peak,
+                            style: None,
                         });
                     }
                     for &level in &group.stills {
@@ -339,6 +370,7 @@ impl SetSpec {
                             content: Content::Image(expression),
                             emotion: item.emotion.clone(),
                             intensity: level,
+                            style: None,
                         });
                     }
                 }
@@ -417,6 +449,7 @@ fn spoken_entry(item: &Item, item_name: &str, sentence: &str, voice: &crate::spe
         expression: face.to_string(),
         emotion: item.emotion.clone(),
         intensity: peak,
+        style: None,
     })
 }
 
@@ -473,6 +506,85 @@ fn selection<'a>(sel: &'a Selection, gname: &str, what: &str) -> Result<Option<&
         Selection::Word(w) => Err(fail(gname, format!("{what} = \"{w}\": use \"all\" or a list of names"))),
         Selection::List(list) => Ok(Some(list)),
     }
+}
+
+/// A `laughs` group's videos: each type, on each of its people, at each peak, performed with
+/// a take seeded by the set's seed and the position of its first entry, then drawn in each
+/// style from the same curves. The manifest's
+/// timing is the type's nominal phases (rest and rise, apex, fall and rest) stretched to the
+/// take's length; the frame-by-frame truth is in the timeline.
+fn laugh_entries(
+    group: &RawGroup,
+    laughs: &Selection,
+    gname: &str,
+    rotation: &[String],
+    staging: Staging<'_>,
+    first_index: usize,
+    catalog: &Catalog,
+) -> Result<Vec<Entry>, SpecError> {
+    let other = group.aus.is_some() || group.expressions.is_some() || group.emotions.is_some() || group.cpt.is_some() || group.speak.is_some();
+    if other || !group.stills.is_empty() || group.timing.is_some() {
+        return Err(fail(gname, "a laughs group makes performed videos only: remove aus, expressions, emotions, cpt, speak, stills and timing"));
+    }
+    if group.video_peaks.is_empty() {
+        return Err(fail(gname, "asks for no media (set video_peaks)"));
+    }
+    let table = LaughTable::built_in();
+    let types: Vec<&crate::laugh::LaughType> = match selection(laughs, gname, "laughs")? {
+        None => table.iter().collect(),
+        Some(ids) => ids
+            .iter()
+            .map(|id| table.get(id).ok_or_else(|| fail(gname, format!("laughs: \"{}\" is not a laugh type; the types are: {}", excerpt(id), table.ids().join(", ")))))
+            .collect::<Result<_, _>>()?,
+    };
+    let styles: Vec<Style> = match &group.styles {
+        None => vec![Style::Realistic],
+        Some(names) if names.is_empty() => return Err(fail(gname, "styles is empty")),
+        Some(names) => names.iter().map(|n| n.parse::<Style>().map_err(|e| fail(gname, format!("styles: {e}")))).collect::<Result<_, _>>()?,
+    };
+    let mut entries = Vec::new();
+    for (i, laugh) in types.iter().enumerate() {
+        let item_name = format!("{gname}, laugh {} ({})", i + 1, laugh.id);
+        for identity in people(group, i, rotation, &item_name)? {
+            for &peak in &group.video_peaks {
+                // One take per type, person and peak, drawn in every style (the same curves).
+                let index = first_index + entries.len();
+                let take = Take { fps: staging.fps, duration_s: None, intensity: peak, seed: staging.seed ^ index as u64 };
+                let curves = crate::laugh::perform(laugh, &take).map_err(|e| fail(&item_name, e.to_string()))?;
+                let timeline = curves.to_timeline(&identity, staging.size);
+                timeline.validate(catalog).map_err(|e| fail(&item_name, e.to_string()))?;
+                let e = &laugh.envelope;
+                let stretch = timeline.duration_s / e.total();
+                let timing = ClipTiming { onset_s: (e.lead + e.onset) * stretch, apex_s: e.apex * stretch, offset_s: (e.offset + e.tail) * stretch, ..ClipTiming::default() };
+                let expression = curves.peak_expression(catalog).map_err(|e| fail(&item_name, e.to_string()))?.to_string();
+                for &style in &styles {
+                    entries.push(Entry {
+                        index: first_index + entries.len(),
+                        origin: format!("{item_name}, {} at {peak}, {identity}", style.name()),
+                        identity: identity.clone(),
+                        expression: expression.clone(),
+                        content: Content::Video { timeline: timeline.clone(), timing, speech: None },
+                        emotion: crate::study::labels::Qualified::text("laughs", &laugh.id),
+                        intensity: peak,
+                        style: Some(style),
+                    });
+                }
+            }
+        }
+    }
+    Ok(entries)
+}
+
+/// The people a group's `i`-th item is shown on (its `identity`: rotate, each, or one id).
+fn people(group: &RawGroup, i: usize, rotation: &[String], item_name: &str) -> Result<Vec<String>, SpecError> {
+    Ok(match group.identity.as_deref().unwrap_or("rotate") {
+        "rotate" => vec![rotation[i % rotation.len()].clone()],
+        "each" => rotation.to_vec(),
+        one => {
+            IdentityTable::active().get(one).map_err(|_| fail(item_name, format!("identity \"{one}\" is not known (see `facslab identities`)")))?;
+            vec![one.to_string()]
+        }
+    })
 }
 
 fn group_items(group: &RawGroup, gname: &str, catalog: &Catalog) -> Result<Vec<Item>, SpecError> {

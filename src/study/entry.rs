@@ -114,6 +114,7 @@ mod tests {
             set_seed: 1,
             engine_version: "0".into(),
             dither: String::new(),
+            style: String::new(),
         }
     }
 

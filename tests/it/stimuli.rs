@@ -312,6 +312,7 @@ fn stimuli_shipped_specs_validate() {
         ("exp3.toml", "exp3: 40 stimuli (20 videos, 20 images)"),
         ("cpt.toml", "cpt: 7 stimuli (7 videos, 0 images)"),
         ("demo.toml", "demo: 10 stimuli (2 videos, 8 images)"),
+        ("laughs.toml", "laughs: 26 stimuli (26 videos, 0 images)"),
     ] {
         let out = facslab_ok(dir.path(), &["stimuli", "check", root.join(name).to_str().unwrap()]);
         let text = String::from_utf8_lossy(&out.stdout);
@@ -468,6 +469,31 @@ fn stimuli_spec_people_from_a_file_and_the_look() {
     std::fs::write(dir.path().join("video.toml"), video).unwrap();
     let output = facslab(dir.path(), &["stimuli", "check", "video.toml"]);
     assert!(!output.status.success() && stderr(&output).contains("transparent"), "{}", stderr(&output));
+}
+
+/// A laughs group: each type performed in each style, labelled from the laughs label set, the
+/// style named in the manifest; the two styles of one take move the same AUs but look different.
+#[test]
+fn stimuli_laugh_groups_perform_each_type_in_each_style_and_name_both() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = "name = \"l\"\nseed = 4\nsize = [48, 48]\nfps = 10\nidentities = [\"wm1\"]\n[[group]]\nname = \"laughs\"\nlaughs = [\"laughter\", \"false_smile\"]\nstyles = [\"realistic\", \"cartoon\"]\nvideo_peaks = [1]\n";
+    let rows = build(dir.path(), spec, "set");
+    let seen: Vec<(&str, &str)> = rows.iter().map(|r| (r.emotion.as_str(), r.style.as_str())).collect();
+    assert_eq!(seen, [("laughs:laughter", "realistic"), ("laughs:laughter", "cartoon"), ("laughs:false_smile", "realistic"), ("laughs:false_smile", "cartoon")]);
+    assert!(rows.iter().all(|r| r.media == facslab::stimuli::Media::Video && r.frames.unwrap_or(0) > 20), "{rows:?}");
+    assert!(rows[0].expression.contains("12@") && rows[0].expression.contains("26@"), "laughter opens the jaw: {}", rows[0].expression);
+    let csv = std::fs::read_to_string(dir.path().join("set/manifest.csv")).unwrap();
+    assert!(csv.lines().next().unwrap().ends_with(",style"), "{csv}");
+    let bytes = |r: &ManifestRow| std::fs::read(dir.path().join("set").join(&r.file)).unwrap();
+    assert_ne!(bytes(&rows[0]), bytes(&rows[1]), "the cartoon take is drawn differently");
+    let timeline = |r: &ManifestRow| std::fs::read(dir.path().join("set/timelines").join(format!("{}.json", r.stimulus_id))).unwrap();
+    assert_eq!(timeline(&rows[0]), timeline(&rows[1]), "both styles play the same take");
+    assert_ne!(timeline(&rows[0]), timeline(&rows[2]), "each type its own take");
+    for (what, bad) in [("not a laugh type", "laughs = [\"giggle\"]"), ("styles", "laughs = \"all\"\nstyles = [\"sketch\"]"), ("performed videos only", "laughs = \"all\"\nstills = [1]")] {
+        std::fs::write(dir.path().join("bad.toml"), spec.replace("laughs = [\"laughter\", \"false_smile\"]\nstyles = [\"realistic\", \"cartoon\"]", bad)).unwrap();
+        let output = facslab(dir.path(), &["stimuli", "check", "bad.toml"]);
+        assert!(!output.status.success() && stderr(&output).contains(what), "{bad}: {}", stderr(&output));
+    }
 }
 
 /// Stills of two people and a short clip, small enough to render again and again.
