@@ -1,9 +1,12 @@
 #!/usr/bin/env python3
 """MediaPipe landmark tracks of facslab's own laugh renders: the fixture `curves fit` is tested on.
 
-Writes, per take, a timeline (a neutral start, AU6+AU12 rising to a held smile, three AU25+AU26
-jaw pulses, release), renders it with `facslab render --timeline … --frames DIR`, runs MediaPipe
-FaceLandmarker (the validators' `mp_tasks` backend, 478 landmarks) on every frame and writes
+Per take (`--source laugh`, the default): `facslab laugh laughter` performs a take (seeds 1 and 2,
+wm1) and exports its timeline; with `--source timeline` the script writes a timeline itself (a
+neutral start, AU6+AU12 rising to a held smile, three AU25+AU26 jaw pulses, release). The timeline
+is rendered with `facslab render --timeline … --frames DIR` (the take's own frames: a timeline
+reproduces its video exactly), MediaPipe FaceLandmarker (the validators' `mp_tasks` backend, 478
+landmarks) runs on every frame, and the script writes
 
     tests/fixtures/laugh/mp_take{N}.csv     frame,x_0..x_477,y_0..y_477 (pixels, y down)
     tests/fixtures/laugh/mp_truth.csv       take,frame,au6,au12,au25,au26 (the rendered intensities)
@@ -55,10 +58,18 @@ def timeline(identity, size, peak, jaw_peak, pulses):
     return {"fps": FPS, "duration_s": DURATION, "identity": identity, "size": [size, size], "tracks": tracks}
 
 
+def laugh_timeline(a, work, seed):
+    """The timeline of a `facslab laugh laughter` take on wm1 at the fixture's size and rate."""
+    path = os.path.join(work, "timeline.json")
+    subprocess.run([a.facslab, "laugh", "laughter", "--identity", "wm1", "--size", f"{a.size}x{a.size}", "--fps", str(FPS),
+                    "--seed", str(seed), "--export-timeline", path, "-o", os.path.join(work, "take.mp4")], check=True)
+    return json.load(open(path))
+
+
 def truth(tl, frames):
     rows = []
     for f in range(frames):
-        t = f / FPS
+        t = f / tl["fps"]
         v = {au: 0.0 for au in (6, 12, 25, 26)}
         for tr in tl["tracks"]:
             if tr["start_s"] <= t <= tr["end_s"]:
@@ -96,6 +107,7 @@ def main():
     ap.add_argument("--out", default=os.path.join(HERE, "..", "..", "tests", "fixtures", "laugh"))
     ap.add_argument("--work", default="/tmp/facslab-laugh-tracks")
     ap.add_argument("--size", type=int, default=320)
+    ap.add_argument("--source", choices=["laugh", "timeline"], default="laugh")
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     lm = landmarker(a.validators)
@@ -103,8 +115,11 @@ def main():
     for n, (identity, peak, jaw_peak, pulses) in enumerate(TAKES, 1):
         work = os.path.join(a.work, f"take{n}")
         os.makedirs(os.path.join(work, "frames"), exist_ok=True)
-        tl = timeline(identity, a.size, peak, jaw_peak, pulses)
-        json.dump(tl, open(os.path.join(work, "timeline.json"), "w"), indent=1)
+        if a.source == "laugh":
+            tl = laugh_timeline(a, work, n)
+        else:
+            tl = timeline(identity, a.size, peak, jaw_peak, pulses)
+            json.dump(tl, open(os.path.join(work, "timeline.json"), "w"), indent=1)
         subprocess.run([a.facslab, "render", "--timeline", os.path.join(work, "timeline.json"), "-o",
                         os.path.join(work, "clip.mp4"), "--frames", os.path.join(work, "frames")], check=True)
         pngs = sorted(p for p in os.listdir(os.path.join(work, "frames")) if p.endswith(".png"))

@@ -150,9 +150,9 @@ fn curves_fit_recovers_known_curves_and_picks_the_central_take() {
     assert!(e12 < 0.08 && e26 < 0.12 && raw12 < 0.12, "RMS AU12 {e12} (as fitted {raw12}), AU26 {e26}");
 }
 
-/// The committed MediaPipe fixture: landmarks MediaPipe found on facslab's render of a smile
-/// with three jaw pulses (two takes). The fitted AU12 rises where the render's AU12 did, and
-/// AU26 follows the render's jaw pulses.
+/// The committed MediaPipe fixture: landmarks MediaPipe found on two takes of `facslab laugh
+/// laughter` (wm1, seeds 1 and 2; the head lifts and bobs). The fitted AU12 rises where the
+/// take's AU12 did, and AU26 follows its jaw pulses.
 #[test]
 fn curves_fit_on_mediapipe_tracks_of_facslab_renders_rises_where_the_render_did() {
     let dir = tempfile::tempdir().unwrap();
