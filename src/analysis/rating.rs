@@ -184,6 +184,9 @@ pub struct ComparisonRow {
 #[derive(Debug, Clone, Serialize)]
 pub struct RatingReport {
     pub convention: String,
+    /// The label set the answers and stimuli are labelled from: its id and its name.
+    pub label_set: String,
+    pub label_set_name: String,
     pub labels: Vec<String>,
     pub chance: f64,
     pub conditions: Vec<Condition>,
@@ -648,7 +651,19 @@ pub fn analyze(manifest: &Manifest, responses: &Responses) -> Option<RatingRepor
     }
     let table14 = table14(&conditions);
     let design = design::analyze(&ctx, &data);
-    Some(RatingReport { convention: CONVENTION.to_string(), chance: 1.0 / ctx.labels.len() as f64, labels: ctx.labels, conditions, group_tests: tests, anova, design, table14 })
+    let set = manifest.label_set();
+    Some(RatingReport {
+        convention: CONVENTION.to_string(),
+        label_set: set.id().to_string(),
+        label_set_name: set.table().name.clone(),
+        chance: 1.0 / ctx.labels.len() as f64,
+        labels: ctx.labels,
+        conditions,
+        group_tests: tests,
+        anova,
+        design,
+        table14,
+    })
 }
 
 #[cfg(test)]
