@@ -31,6 +31,8 @@ pub enum InputError {
     Parquet { file: PathBuf, detail: String },
     #[error("{file}: Parquet files need facslab built with the `polars` feature (cargo build --release --features polars)")]
     NeedsPolars { file: PathBuf },
+    #[error("{file}: {source}")]
+    Labels { file: PathBuf, source: crate::stimuli::labels::LabelFileError },
 }
 
 /// Whether `path` names a Parquet file (extension `.parquet`, any case); anything else is CSV.

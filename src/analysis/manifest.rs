@@ -6,7 +6,8 @@
 //! `emotion` column names a declared label (`study::labels`): `laughs:sly_smile`, or a bare label
 //! of the EmFACS set, as every manifest before label sets. An optional `style` column names how
 //! the stimulus was made (seed 004: `realistic` or `cartoon` avatar, `real` for a recording);
-//! a manifest without it leaves every style empty.
+//! a manifest without it leaves every style empty. A user's own label sets are read from the
+//! `labels/` directory beside the manifest file.
 
 use std::path::Path;
 
@@ -50,8 +51,11 @@ pub struct Manifest {
 }
 
 impl Manifest {
-    /// Reads and validates a manifest file.
+    /// Reads and validates a manifest file, after registering the label sets its set carries
+    /// (`labels/` beside it, [`crate::stimuli::labels`]).
     pub fn read(path: &Path, catalog: &Catalog, emotions: &EmotionTable) -> Result<Manifest, InputError> {
+        let set_dir = path.parent().unwrap_or(Path::new("."));
+        crate::stimuli::labels::register_set(set_dir).map_err(|source| InputError::Labels { file: path.to_path_buf(), source })?;
         Self::parse(TableInput::open(path)?, catalog, emotions)
     }
 

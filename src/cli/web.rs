@@ -193,18 +193,30 @@ pub fn serve_command(args: ServeArgs) -> anyhow::Result<()> {
     })
 }
 
+/// The stimulus set of a design: `--set`, else the design's `stimuli` relative to the design
+/// file; the label sets that set carries are registered, so the design may name one of them.
+fn design_set(text: &str, design: &Path, set: Option<PathBuf>) -> anyhow::Result<PathBuf> {
+    let set = set.unwrap_or_else(|| {
+        let named = toml::from_str::<toml::Table>(text).ok().and_then(|t| t.get("stimuli")?.as_str().map(PathBuf::from));
+        design.parent().unwrap_or(Path::new(".")).join(named.unwrap_or_default())
+    });
+    crate::stimuli::labels::register_set(&set)?;
+    Ok(set)
+}
+
 pub fn study_command(command: StudyCommand) -> anyhow::Result<()> {
     match command {
         StudyCommand::Check { design } => {
             let text = std::fs::read_to_string(&design).with_context(|| format!("reading {}", design.display()))?;
+            design_set(&text, &design, None)?;
             let d = StudyDesign::from_toml(&text).with_context(|| format!("in {}", design.display()))?;
             println!("{}: {} study \"{}\", {} Likert item(s), {} attention check(s)", d.slug, d.task.as_str(), d.title, d.items.len(), d.attention.checks.len());
             Ok(())
         }
         StudyCommand::Create { design, set, db, open: open_now } => runtime()?.block_on(async {
             let text = std::fs::read_to_string(&design).with_context(|| format!("reading {}", design.display()))?;
-            let parsed = StudyDesign::from_toml(&text).with_context(|| format!("in {}", design.display()))?;
-            let set = set.unwrap_or_else(|| design.parent().unwrap_or(Path::new(".")).join(&parsed.stimuli));
+            let set = design_set(&text, &design, set)?;
+            StudyDesign::from_toml(&text).with_context(|| format!("in {}", design.display()))?;
             let db = open(&db).await?;
             let d = db.create_study_from(&text, &set, open_now).await.with_context(|| format!("creating the study of {}", design.display()))?;
             println!("created study \"{}\" ({}) over {}; participants start at /s/{}", d.slug, if open_now { StudyStatus::Open } else { StudyStatus::Draft }, set.display(), d.slug);

@@ -67,8 +67,10 @@ pub struct StudyRow {
 }
 
 impl StudyRow {
-    /// The design, parsed again from the stored TOML (it was validated on creation).
+    /// The design, parsed again from the stored TOML (it was validated on creation), after the
+    /// label sets its stimulus set carries are registered (a design may name one of them).
     pub fn design(&self) -> Result<StudyDesign, DbError> {
+        crate::stimuli::labels::register_set(std::path::Path::new(&self.set_dir)).map_err(|e| DbError::Internal(format!("study \"{}\": {e}", self.slug)))?;
         StudyDesign::from_toml(&self.spec_toml).map_err(|e| DbError::Internal(format!("stored design of \"{}\" no longer valid: {e}", self.slug)))
     }
 }
@@ -204,6 +206,7 @@ impl Db {
     /// Creates a study from a design's TOML text over the built set in `set_dir` (stored as an
     /// absolute path, so the server finds the media whatever its working directory).
     pub async fn create_study_from(&self, spec_toml: &str, set_dir: &std::path::Path, open: bool) -> Result<StudyDesign, DbError> {
+        crate::stimuli::labels::register_set(set_dir).map_err(|e| DbError::Invalid(e.to_string()))?;
         let design = StudyDesign::from_toml(spec_toml)?;
         let stimuli = set_stimuli(set_dir, &design)?;
         let hash = set_sha256(set_dir)?;

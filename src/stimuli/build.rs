@@ -319,6 +319,7 @@ pub fn build(spec: &SetSpec, out: &Path, options: &BuildOptions) -> Result<Build
     for (i, result) in results {
         rows[i].sha256 = result?;
     }
+    crate::stimuli::labels::write_set(out, &spec.label_files)?;
     write_atomic(&out.join("manifest.csv"), manifest::to_csv(&rows).as_bytes())?;
     write_atomic(&manifest_json, manifest::to_json(&rows).as_bytes())?;
     Ok(BuildSummary {

@@ -3,7 +3,8 @@
 //! show are rendered once, [`frames`]), and the
 //! manifest and per-frame ground truth written beside them ([`manifest`]); a set split into
 //! shards built anywhere and merged back into the same bytes ([`shard`]); the set's secret dither
-//! key and the sub-visible dither it puts on every picture a participant sees ([`dither`]).
+//! key and the sub-visible dither it puts on every picture a participant sees ([`dither`]); the
+//! user's label sets a set's stimuli are labelled with, carried in the set ([`labels`]).
 //!
 //! In: a spec file. Out: a directory of media files plus `manifest.csv`/`manifest.json`.
 //! Invariant: a spec is fully validated before anything renders, and the same spec, seed and
@@ -14,6 +15,7 @@
 pub mod build;
 pub mod dither;
 pub mod frames;
+pub mod labels;
 pub mod manifest;
 pub mod shard;
 pub mod spec;

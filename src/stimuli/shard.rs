@@ -266,7 +266,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergeSummary, ShardError> {
 
 /// The directories of a set's layout whose files are copied by a merge (the manifests are
 /// written anew, the dither key is written from the checked key; `shard.json` stays behind).
-const SET_DIRS: [&str; 5] = ["media", "posters", "ground_truth", "timelines", "frames"];
+const SET_DIRS: [&str; 6] = ["media", "posters", "ground_truth", "timelines", "frames", crate::stimuli::labels::LABELS_DIR];
 
 /// Copies a shard's set files into `out`, each through a temporary name; returns how many.
 fn copy_set_files(shard: &Path, out: &Path) -> Result<usize, ShardError> {

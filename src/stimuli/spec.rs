@@ -16,7 +16,7 @@
 //!
 //! [[group]]
 //! name = "single AUs"
-//! aus = "hapfacs"                 # or: expressions = ["1+2", …] / emotions = "all" | [..] / cpt = "all" | [..]
+//! aus = "hapfacs"                 # or: expressions = ["1+2", …] / emotions = "all" | [..] / cpt = "all" | [..] / labelled (below)
 //! video_peaks = [1.0]             # one video per peak intensity
 //! stills = [0.3, 0.6, 0.9]        # one still per intensity
 //! timing = { onset_s = 1.0, apex_s = 1.0, offset_s = 1.0, ramp = "linear" }   # the default
@@ -28,6 +28,19 @@
 //! laughs = "all"                  # or a list of ids of stimuli/laughs/types.toml
 //! styles = ["realistic", "cartoon"]   # the default is ["realistic"]
 //! video_peaks = [1.0]
+//! ```
+//!
+//! A group with `labelled` gives each expression the label it portrays, from any declared label
+//! set: the built-in ones or the user's own, declared by `label_sets = ["moods.toml"]` at the
+//! top (paths relative to the spec; see `stimuli/labels/` for the format). The built set carries
+//! the user's files in `labels/`, so its manifest's labels resolve wherever the set goes:
+//!
+//! ```toml
+//! label_sets = ["moods.toml"]
+//! [[group]]
+//! name = "moods"
+//! labelled = [{ label = "moods:astonished", expression = "1+2+5B+26" }, { label = "happiness", expression = "6+12" }]
+//! stills = [1.0]
 //! ```
 //!
 //! A group with `laughs` makes performed laugh and smile videos (see [`crate::laugh`]): each
@@ -99,6 +112,9 @@ struct RawSpec {
     grayscale: bool,
     #[serde(default)]
     png_frames: bool,
+    /// The user's label-set files (relative to the spec) that `labelled` groups name.
+    #[serde(default)]
+    label_sets: Vec<String>,
     group: Vec<RawGroup>,
 }
 
@@ -130,6 +146,16 @@ struct RawGroup {
     /// For `laughs`: the avatar styles, each type drawn in each (default `["realistic"]`).
     #[serde(default)]
     styles: Option<Vec<String>>,
+    /// Expressions with the label each portrays (`moods:astonished`; a bare label is EmFACS).
+    #[serde(default)]
+    labelled: Option<Vec<RawLabelled>>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawLabelled {
+    label: String,
+    expression: String,
 }
 
 #[derive(Debug, Deserialize)]
@@ -196,6 +222,8 @@ pub struct SetSpec {
     pub look: Look,
     /// Also write every video frame as PNG (`frames/<id>/000000.png`).
     pub png_frames: bool,
+    /// The user's label sets the spec declares (`label_sets`), written into the built set.
+    pub label_files: Vec<crate::stimuli::labels::LabelFile>,
     pub entries: Vec<Entry>,
 }
 
@@ -225,7 +253,8 @@ fn excerpt(text: &str) -> String {
 /// Refuses over-long expressions before they are parsed (parse errors quote their input).
 fn check_lengths(raw: &RawSpec) -> Result<(), SpecError> {
     for group in &raw.group {
-        for text in group.aus.iter().chain(group.expressions.iter().flatten()) {
+        let labelled = group.labelled.iter().flatten().map(|l| &l.expression);
+        for text in group.aus.iter().chain(group.expressions.iter().flatten()).chain(labelled) {
             if text.len() > MAX_EXPRESSION_LEN {
                 return Err(fail(format!("group \"{}\"", excerpt(&group.name)), format!("expression \"{}\" has {} characters; at most {MAX_EXPRESSION_LEN}", excerpt(text), text.len())));
             }
@@ -255,6 +284,7 @@ impl SetSpec {
             let people = std::fs::read_to_string(&path).map_err(|e| fail("spec", format!("identities_file {}: {e}", path.display())))?;
             IdentityTable::install(&people).map_err(|e| fail("spec", format!("identities_file {}: {e}", path.display())))?;
         }
+        let label_files = read_label_sets(&raw.label_sets, base)?;
         let identities_table = IdentityTable::active();
         let size = raw.size.unwrap_or([crate::engine::DEFAULT_SIZE.0, crate::engine::DEFAULT_SIZE.1]);
         if !(16..=4096).contains(&size[0]) || !(16..=4096).contains(&size[1]) {
@@ -384,6 +414,7 @@ impl SetSpec {
             fps,
             look,
             png_frames: raw.png_frames,
+            label_files,
             entries,
         })
     }
@@ -587,12 +618,46 @@ fn people(group: &RawGroup, i: usize, rotation: &[String], item_name: &str) -> R
     })
 }
 
+/// Registers the spec's `label_sets` files (paths relative to `base`); the user's own sets among
+/// them are kept to be written into the built set.
+fn read_label_sets(files: &[String], base: &std::path::Path) -> Result<Vec<crate::stimuli::labels::LabelFile>, SpecError> {
+    if files.len() > 16 {
+        return Err(fail("spec", format!("label_sets names {} files; at most 16", files.len())));
+    }
+    let mut declared: Vec<crate::stimuli::labels::LabelFile> = Vec::new();
+    for file in files {
+        let read = crate::stimuli::labels::register_file(&base.join(file)).map_err(|e| fail("spec", format!("label_sets: {e}")))?;
+        if !read.set.is_built_in() && !declared.iter().any(|d| d.set == read.set) {
+            declared.push(read);
+        }
+    }
+    Ok(declared)
+}
+
+/// The items of a `labelled` group: each expression with the declared label it portrays.
+fn labelled_items(list: &[RawLabelled], gname: &str, catalog: &Catalog) -> Result<Vec<Item>, SpecError> {
+    let mut items = Vec::new();
+    for (i, item) in list.iter().enumerate() {
+        let at = format!("{gname}, item {} (\"{}\")", i + 1, excerpt(&item.label));
+        let (set, label) = crate::study::labels::Qualified::split(item.label.trim())
+            .resolve()
+            .map_err(|e| fail(&at, format!("label: {e} (declare your own set in label_sets)")))?;
+        let expression = catalog.parse(&item.expression).map_err(|e| fail(&at, format!("expression: {e}")))?;
+        let emotion = crate::study::labels::Qualified::text(set.id(), &label.id);
+        items.push(Item { label: emotion.clone(), emotion, steps: vec![expression] });
+    }
+    Ok(items)
+}
+
 fn group_items(group: &RawGroup, gname: &str, catalog: &Catalog) -> Result<Vec<Item>, SpecError> {
-    let sources = [group.aus.is_some(), group.expressions.is_some(), group.emotions.is_some(), group.cpt.is_some()];
+    let sources = [group.aus.is_some(), group.expressions.is_some(), group.emotions.is_some(), group.cpt.is_some(), group.labelled.is_some()];
     if sources.iter().filter(|&&s| s).count() != 1 {
-        return Err(fail(gname, "needs exactly one of aus, expressions, emotions, cpt"));
+        return Err(fail(gname, "needs exactly one of aus, expressions, emotions, cpt, labelled"));
     }
     let mut items = Vec::new();
+    if let Some(list) = &group.labelled {
+        items.extend(labelled_items(list, gname, catalog)?);
+    }
     if let Some(aus) = &group.aus {
         if aus != "hapfacs" && aus != "all" {
             return Err(fail(gname, format!("aus = \"{aus}\": use \"hapfacs\" (the 49 HapFACS AUs) or \"all\"")));

@@ -180,6 +180,11 @@ impl LabelSet {
         built_in_sets().iter().map(|d| d.table.id.clone()).chain(registered().iter().map(|d| d.table.id.clone())).collect()
     }
 
+    /// Whether this is one of the sets shipped with facslab ([`BUILT_IN`]).
+    pub fn is_built_in(self) -> bool {
+        built_in_sets().iter().any(|d| std::ptr::eq(d, self.0))
+    }
+
     pub fn id(self) -> &'static str {
         &self.0.table.id
     }

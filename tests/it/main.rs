@@ -11,6 +11,7 @@ mod e2e;
 mod edge;
 mod golden;
 mod laugh;
+mod labels;
 mod laughs_study;
 mod psych_ds;
 mod render;

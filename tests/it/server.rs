@@ -76,7 +76,15 @@ impl Lab {
 
     /// A lab whose set is built from `spec`, its database on `backend`.
     pub fn with_set_on(spec: &str, backend: &Backend) -> Lab {
+        Lab::with_files(spec, &[], backend)
+    }
+
+    /// A lab whose set is built from `spec` beside `files` (name, text) the spec names.
+    pub fn with_files(spec: &str, files: &[(&str, &str)], backend: &Backend) -> Lab {
         let dir = tempfile::tempdir().unwrap();
+        for (name, text) in files {
+            std::fs::write(dir.path().join(name), text).unwrap();
+        }
         std::fs::write(dir.path().join("set.toml"), spec).unwrap();
         facslab_ok(dir.path(), &["stimuli", "build", "set.toml", "-o", "set", "--jobs", "2"]);
         let store = TestDb::new(backend, dir.path());
