@@ -38,7 +38,7 @@ fn files() -> Files {
 
 fn analyze(responses: &Path, manifest_path: &Path, out: &Path) -> u64 {
     let (catalog, emotions) = (Catalog::built_in(), EmotionTable::built_in());
-    let manifest = Manifest::read(manifest_path, catalog, &emotions).expect("manifest");
+    let manifest = Manifest::read(manifest_path, catalog).expect("manifest");
     let responses_read = Responses::read(responses, &manifest, catalog, &emotions).expect("responses");
     let report = facslab::report::build(&manifest, &responses_read, CodingOptions::default(), responses, manifest_path);
     facslab::report::write(&report, out).expect("report written");
@@ -56,6 +56,6 @@ fn exp3_1m_rows_end_to_end(bencher: divan::Bencher) {
 fn exp3_1m_rows_read_only(bencher: divan::Bencher) {
     let f = files();
     let (catalog, emotions) = (Catalog::built_in(), EmotionTable::built_in());
-    let manifest = Manifest::read(&f.manifest, catalog, &emotions).expect("manifest");
+    let manifest = Manifest::read(&f.manifest, catalog).expect("manifest");
     bencher.bench(|| Responses::read(divan::black_box(&f.responses), &manifest, catalog, &emotions).expect("responses").rows);
 }

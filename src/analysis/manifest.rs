@@ -12,7 +12,7 @@
 use std::path::Path;
 
 use super::input::{FxHashMap, InputError, TableInput};
-use crate::facs::{Catalog, EmotionTable, Expression};
+use crate::facs::{Catalog, Expression};
 use crate::study::labels::{LabelSet, Qualified};
 
 /// Still image or video: the manifest's own type.
@@ -53,21 +53,21 @@ pub struct Manifest {
 impl Manifest {
     /// Reads and validates a manifest file, after registering the label sets its set carries
     /// (`labels/` beside it, [`crate::stimuli::labels`]).
-    pub fn read(path: &Path, catalog: &Catalog, emotions: &EmotionTable) -> Result<Manifest, InputError> {
+    pub fn read(path: &Path, catalog: &Catalog) -> Result<Manifest, InputError> {
         let set_dir = path.parent().unwrap_or(Path::new("."));
         crate::stimuli::labels::register_set(set_dir).map_err(|source| InputError::Labels { file: path.to_path_buf(), source })?;
-        Self::parse(TableInput::open(path)?, catalog, emotions)
+        Self::parse(TableInput::open(path)?, catalog)
     }
 
     /// Reads a manifest from CSV text (`name` is used in error messages).
-    pub fn from_csv(name: &str, text: &str, catalog: &Catalog, emotions: &EmotionTable) -> Result<Manifest, InputError> {
+    pub fn from_csv(name: &str, text: &str, catalog: &Catalog) -> Result<Manifest, InputError> {
         let bytes = text.as_bytes().to_vec();
-        Self::parse(TableInput::from_reader(Path::new(name), Box::new(std::io::Cursor::new(bytes)))?, catalog, emotions)
+        Self::parse(TableInput::from_reader(Path::new(name), Box::new(std::io::Cursor::new(bytes)))?, catalog)
     }
 
-    /// `_emotions` is the EmFACS table the bare labels come from; they are checked through the
-    /// declared `emfacs` label set, which lists the same labels (`emfacs_labels_follow_the_emotion_table`).
-    fn parse(mut input: TableInput, catalog: &Catalog, _emotions: &EmotionTable) -> Result<Manifest, InputError> {
+    /// Bare labels are EmFACS, checked through the declared `emfacs` label set, which lists the
+    /// same labels as the EmFACS table (`emfacs_labels_follow_the_emotion_table`).
+    fn parse(mut input: TableInput, catalog: &Catalog) -> Result<Manifest, InputError> {
         let c_id = input.column("stimulus_id")?;
         let c_media = input.column("media")?;
         let c_identity = input.column("identity")?;
@@ -143,7 +143,7 @@ mod tests {
     const HEADER: &str = "stimulus_id,media,file,identity,expression,emotion,intensity,onset_s,apex_s,offset_s,frames,fps,width,height,sha256,set_seed,engine_version";
 
     fn read(text: &str) -> Result<Manifest, InputError> {
-        Manifest::from_csv("m.csv", text, Catalog::built_in(), &EmotionTable::built_in())
+        Manifest::from_csv("m.csv", text, Catalog::built_in())
     }
 
     #[test]

@@ -78,7 +78,6 @@ pub(crate) fn fixture(manifest_rows: &str, response_rows: &str) -> (manifest::Ma
         "m.csv",
         &format!("stimulus_id,media,identity,expression,emotion,intensity\n{manifest_rows}"),
         catalog,
-        &emotions,
     )
     .expect("a valid test manifest");
     let responses = responses::Responses::from_csv(

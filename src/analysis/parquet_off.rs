@@ -31,7 +31,7 @@ mod tests {
     #[test]
     fn parquet_input_says_to_rebuild_with_the_feature() {
         let (catalog, emotions) = (crate::facs::Catalog::built_in(), crate::facs::EmotionTable::built_in());
-        let e = crate::analysis::manifest::Manifest::read(std::path::Path::new("m.parquet"), catalog, &emotions).unwrap_err();
+        let e = crate::analysis::manifest::Manifest::read(std::path::Path::new("m.parquet"), catalog).unwrap_err();
         assert_eq!(
             e.to_string(),
             "m.parquet: Parquet files need facslab built with the `polars` feature (cargo build --release --features polars)"

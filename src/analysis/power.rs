@@ -133,7 +133,7 @@ fn one_run(model: &SimOptions, size: usize, seed: u64) -> Result<Vec<Observation
     };
     let (manifest_csv, responses_csv) = simulate(&options);
     let (catalog, emotions) = (Catalog::built_in(), EmotionTable::built_in());
-    let manifest = Manifest::from_csv("manifest.csv", &manifest_csv, catalog, &emotions).map_err(|e| PowerError::Simulation(e.to_string()))?;
+    let manifest = Manifest::from_csv("manifest.csv", &manifest_csv, catalog).map_err(|e| PowerError::Simulation(e.to_string()))?;
     let responses = Responses::from_csv("responses.csv", &responses_csv, &manifest, catalog, &emotions).map_err(|e| PowerError::Simulation(e.to_string()))?;
     let analysis = super::analyze(&manifest, &responses, &CodingOptions::default());
     let mut out = Vec::new();

@@ -215,20 +215,6 @@ fn ttests(a: &[f64], b: &[f64]) -> (Outcome<TTest>, Outcome<TTest>) {
     (student_t(a, b, 0.95).into(), welch_t(a, b, 0.95).into())
 }
 
-/// An ANOVA table with its terms named after the factors (`emotion`, `intensity`,
-/// `emotion:intensity`, `residual`) instead of the fitting's `A`, `B`, `A:B`, `Residual`.
-fn named_terms(mut table: AnovaTable, a: &str, b: &str) -> AnovaTable {
-    for row in &mut table.rows {
-        row.term = match row.term.as_str() {
-            "A" => a.to_string(),
-            "B" => b.to_string(),
-            "A:B" => format!("{a}:{b}"),
-            other => other.to_lowercase(),
-        };
-    }
-    table
-}
-
 /// Published Table 14 figures (emotion, system, intensity %, recognition %, believability).
 pub const PUBLISHED_TABLE14: &str = include_str!("../../analysis/published/table14.csv");
 
@@ -579,7 +565,7 @@ fn anovas(ctx: &Context<'_>, media: Media, out: &mut Vec<Anova>) {
         if cells.n() == 0 {
             return;
         }
-        let run = |t| Outcome::from(two_way_cells(&cells, t)).map(|table| named_terms(table, "emotion", "intensity"));
+        let run = |t| Outcome::from(two_way_cells(&cells, t)).map(|table| table.named("emotion", "intensity"));
         out.push(Anova { media, outcome: outcome.into(), a: "emotion", b: "intensity", n: cells.n(), type_ii: run(SsType::II), type_iii: run(SsType::III) });
     };
     let mut cells = TwoWayCells::with_levels(ctx.labels.clone(), intensity_names.clone());

@@ -415,7 +415,7 @@ mod tests {
 
     fn read(body: &str) -> Result<Responses, InputError> {
         let (catalog, emotions) = (Catalog::built_in(), EmotionTable::built_in());
-        let manifest = Manifest::from_csv("m.csv", MANIFEST, catalog, &emotions).unwrap();
+        let manifest = Manifest::from_csv("m.csv", MANIFEST, catalog).unwrap();
         Responses::from_csv("r.csv", &format!("{HEADER}{body}"), &manifest, catalog, &emotions)
     }
 
@@ -479,8 +479,8 @@ mod tests {
     fn typed_rows_read_as_their_csv_does() {
         let body = "c1,coders,s1,1,aus,1+2+R14,1200\nc1,coders,,,age,36,\np1,amt,s2,1,emotion,happiness,900.5\np1,amt,s2,1,believability,4,\n";
         let from_file = read(body).unwrap();
-        let (catalog, emotions) = (Catalog::built_in(), EmotionTable::built_in());
-        let manifest = Manifest::from_csv("m.csv", MANIFEST, catalog, &emotions).unwrap();
+        let catalog = Catalog::built_in();
+        let manifest = Manifest::from_csv("m.csv", MANIFEST, catalog).unwrap();
         let row = |pid: &str, group: &str, sid: &str, trial: Option<i64>, measure: Measure, value: &str, rt_ms: Option<f64>| LongRow {
             participant_id: pid.into(),
             group: group.into(),
@@ -510,7 +510,7 @@ mod tests {
     #[test]
     fn invalid_utf8_names_row_and_column() {
         let (catalog, emotions) = (Catalog::built_in(), EmotionTable::built_in());
-        let manifest = Manifest::from_csv("m.csv", MANIFEST, catalog, &emotions).unwrap();
+        let manifest = Manifest::from_csv("m.csv", MANIFEST, catalog).unwrap();
         let mut bytes = format!("{HEADER}p1,a,s2,1,emotion,fear,\np2,a,s2,1,emotion,").into_bytes();
         bytes.extend_from_slice(b"\xff\xfe,\n");
         let input = TableInput::from_reader(Path::new("r.csv"), Box::new(std::io::Cursor::new(bytes))).unwrap();
@@ -521,7 +521,7 @@ mod tests {
     #[test]
     fn missing_column_is_named() {
         let (catalog, emotions) = (Catalog::built_in(), EmotionTable::built_in());
-        let manifest = Manifest::from_csv("m.csv", MANIFEST, catalog, &emotions).unwrap();
+        let manifest = Manifest::from_csv("m.csv", MANIFEST, catalog).unwrap();
         let e = Responses::from_csv("r.csv", "participant_id,group,stimulus_id,trial,value,rt_ms\np,g,s1,1,1,\n", &manifest, catalog, &emotions)
             .unwrap_err()
             .to_string();

@@ -363,7 +363,7 @@ mod tests {
             let other = simulate(&SimOptions { seed: 8, ..o.clone() });
             assert_ne!(r1, other.1);
             let (catalog, emotions) = (Catalog::built_in(), EmotionTable::built_in());
-            let manifest = Manifest::from_csv("m.csv", &m1, catalog, &emotions).unwrap();
+            let manifest = Manifest::from_csv("m.csv", &m1, catalog).unwrap();
             let responses = Responses::from_csv("r.csv", &r1, &manifest, catalog, &emotions).unwrap();
             let expected = match design {
                 Design::Exp1 => 49,
@@ -382,7 +382,7 @@ mod tests {
         let o = SimOptions { accuracy: 1.0, false_positive: 0.0, ..SimOptions::default() };
         let (m, r) = simulate(&o);
         let (catalog, emotions) = (Catalog::built_in(), EmotionTable::built_in());
-        let manifest = Manifest::from_csv("m.csv", &m, catalog, &emotions).unwrap();
+        let manifest = Manifest::from_csv("m.csv", &m, catalog).unwrap();
         let responses = Responses::from_csv("r.csv", &r, &manifest, catalog, &emotions).unwrap();
         let report = crate::analysis::coding::analyze(&manifest, &responses, catalog, Default::default()).unwrap();
         assert_eq!(report.micro.f1, 1.0);

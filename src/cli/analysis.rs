@@ -157,7 +157,7 @@ pub struct PowerArgs {
 pub fn analyze(args: AnalyzeArgs) -> anyhow::Result<()> {
     let started = std::time::Instant::now();
     let (catalog, emotions) = (Catalog::built_in(), EmotionTable::built_in());
-    let manifest = Manifest::read(&args.manifest, catalog, &emotions)?;
+    let manifest = Manifest::read(&args.manifest, catalog)?;
     let responses = Responses::read(&args.responses, &manifest, catalog, &emotions)?;
     let options = CodingOptions { match_side: args.match_side, match_intensity: args.match_intensity };
     let report = crate::report::build(&manifest, &responses, options, &args.responses, &args.manifest);

@@ -346,9 +346,9 @@ pub fn report_command(args: ReportArgs) -> anyhow::Result<()> {
     if rows.is_empty() {
         bail!("study \"{}\" has no responses to analyse yet (only completed, non-excluded participants count; --all adds the rest)", args.study);
     }
-    let (catalog, emotions) = (crate::facs::Catalog::built_in(), crate::facs::EmotionTable::built_in());
+    let catalog = crate::facs::Catalog::built_in();
     let manifest_path = set_dir.join("manifest.csv");
-    let manifest = crate::analysis::manifest::Manifest::read(&manifest_path, catalog, &emotions)?;
+    let manifest = crate::analysis::manifest::Manifest::read(&manifest_path, catalog)?;
     let responses = crate::analysis::responses::Responses::from_rows("responses.csv", &rows, &manifest, catalog)?;
     let options = crate::analysis::coding::CodingOptions { match_side: args.match_side, match_intensity: args.match_intensity };
     let report = crate::report::build(&manifest, &responses, options, std::path::Path::new("responses.csv"), &manifest_path);

@@ -164,7 +164,7 @@ mod tests {
         let options = SimOptions { design, seed: 3, participants: 4, groups: groups.iter().map(|g| g.to_string()).collect(), ..SimOptions::default() };
         let (manifest, responses) = simulate(&options);
         let (catalog, emotions) = (Catalog::built_in(), EmotionTable::built_in());
-        let manifest = Manifest::from_csv("manifest.csv", &manifest, catalog, &emotions).unwrap();
+        let manifest = Manifest::from_csv("manifest.csv", &manifest, catalog).unwrap();
         let responses = Responses::from_csv("responses.csv", &responses, &manifest, catalog, &emotions).unwrap();
         build(&manifest, &responses, CodingOptions::default(), Path::new("responses.csv"), Path::new("manifest.csv"))
     }

@@ -167,6 +167,20 @@ impl AnovaTable {
     pub fn row(&self, term: &str) -> Option<&AnovaRow> {
         self.rows.iter().find(|r| r.term == term)
     }
+
+    /// The table with its terms named after the factors (`a`, `b`, `a:b`) and the residual row
+    /// as `residual`, as reports print them.
+    pub fn named(mut self, a: &str, b: &str) -> AnovaTable {
+        for row in &mut self.rows {
+            row.term = match row.term.as_str() {
+                "A" => a.to_string(),
+                "B" => b.to_string(),
+                "A:B" => format!("{a}:{b}"),
+                other => other.to_lowercase(),
+            };
+        }
+        self
+    }
 }
 
 /// Factor coding of the design matrix. The public API always uses [`Coding::Sum`]; treatment
