@@ -16,7 +16,9 @@
 //! recognition rate per condition × emotion (Clopper–Pearson CI, one row each and their mean),
 //! mean believability per condition (t CI over the participants' means), and the Welch t-test
 //! of the first two groups' mean believability per condition (its CI of the difference, and the
-//! power).
+//! power). For seed 004's laugh designs, per rating scale: each style's mean (t CI over its
+//! ratings), and the power of the two-way ANOVA's style effect and style × label interaction
+//! (Type II, the seed's melancholy-smile and false-laughter interaction in the simulation).
 //!
 //! **Invariants:** the same options give the same table (each run's seed is derived from the
 //! seed, the size and the run index only); sizes and runs are bounded ([`MAX_RUNS`],
@@ -61,20 +63,21 @@ pub enum PowerError {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct PowerRow {
     pub size: usize,
-    /// `per-AU F1`, `recognition rate`, `believability mean` or `believability t-test`.
+    /// `per-AU F1`, `recognition rate`, `believability mean`, `believability t-test`; for the
+    /// laugh designs `style mean`, `style effect` and `style x label interaction`.
     pub statistic: String,
     /// The AU, `condition emotion`, condition, or `mean` for the mean over the items.
     pub item: String,
     /// Runs in which the statistic was defined.
     pub runs: usize,
     pub estimate_mean: f64,
-    /// Mean width of the reported 95 % CI.
-    pub ci_width_mean: f64,
+    /// Mean width of the reported 95 % CI (`None` for the ANOVA's F-tests, which report none).
+    pub ci_width_mean: Option<f64>,
     pub spread_low: f64,
     pub spread_high: f64,
     /// spread_high − spread_low: what the CI width should match.
     pub spread_width: f64,
-    /// Share of runs with p < .05 (t-test only).
+    /// Share of runs with p < .05 (the t-test and the F-tests).
     pub power: Option<f64>,
 }
 
@@ -91,14 +94,15 @@ pub struct PowerTable {
     pub rows: Vec<PowerRow>,
 }
 
-pub const CONVENTION: &str = "For each size (coders for exp1/exp2, raters per media x intensity condition for exp3), R seeded simulations are analysed as a real study. ci_width_mean = mean over runs of the reported 95% CI width; spread = 2.5-97.5% percentiles of the point estimates over runs (linear interpolation); a calibrated CI has ci_width_mean close to spread_width. per-AU F1: Jeffreys CI (the report's); recognition rate: Clopper-Pearson; believability mean: t CI over participants' means; believability t-test: Welch, first two groups, per condition, CI of the difference, power = share of runs with p < .05. Rows with item = mean average the items' rows.";
+pub const CONVENTION: &str = "For each size (coders for exp1/exp2, raters per media x intensity condition for exp3), R seeded simulations are analysed as a real study. ci_width_mean = mean over runs of the reported 95% CI width; spread = 2.5-97.5% percentiles of the point estimates over runs (linear interpolation); a calibrated CI has ci_width_mean close to spread_width. per-AU F1: Jeffreys CI (the report's); recognition rate: Clopper-Pearson; believability mean: t CI over participants' means; believability t-test: Welch, first two groups, per condition, CI of the difference, power = share of runs with p < .05; laugh designs (participants per study): style mean per scale and style, t CI over its ratings; style effect and style x label interaction: Type II two-way ANOVA, estimate = partial eta squared, no CI, power = share of runs with p < .05. Rows with item = mean average the items' rows.";
 
 /// One statistic of one analysed run.
 struct Observation {
     statistic: &'static str,
     item: String,
     estimate: f64,
-    ci: (f64, f64),
+    /// The reported 95 % CI; `None` for a test that reports none (the ANOVA's F-tests).
+    ci: Option<(f64, f64)>,
     p: Option<f64>,
 }
 
@@ -140,28 +144,55 @@ fn one_run(model: &SimOptions, size: usize, seed: u64) -> Result<Vec<Observation
     if let Some(c) = &analysis.coding {
         for r in c.per_au.iter().filter(|r| r.shown_in > 0) {
             if let Ok(&ci) = r.f1_ci95.as_result() {
-                out.push(Observation { statistic: "per-AU F1", item: format!("AU{}", r.au), estimate: r.metrics.f1, ci, p: None });
+                out.push(Observation { statistic: "per-AU F1", item: format!("AU{}", r.au), estimate: r.metrics.f1, ci: Some(ci), p: None });
             }
         }
     }
     if let Some(r) = &analysis.rating {
         for c in &r.conditions {
             for e in &c.emotions {
-                out.push(Observation { statistic: "recognition rate", item: format!("{} {}", c.key, e.emotion), estimate: e.rate, ci: e.rate_ci95, p: None });
+                out.push(Observation { statistic: "recognition rate", item: format!("{} {}", c.key, e.emotion), estimate: e.rate, ci: Some(e.rate_ci95), p: None });
             }
             let believability = c.scales.iter().find(|s| s.scale == Scale::Believability).and_then(|s| s.participant_means.as_result().ok());
             if let Some(s) = believability {
-                out.push(Observation { statistic: "believability mean", item: c.key.clone(), estimate: s.mean, ci: s.ci, p: None });
+                out.push(Observation { statistic: "believability mean", item: c.key.clone(), estimate: s.mean, ci: Some(s.ci), p: None });
             }
         }
         let tests = r.group_tests.iter().filter(|t| t.emotion == "all" && t.outcome == BELIEVABILITY_OUTCOME && r.conditions.iter().any(|c| c.key == t.condition));
         for t in tests {
             if let Ok(w) = t.welch.as_result() {
-                out.push(Observation { statistic: "believability t-test", item: t.condition.clone(), estimate: w.mean_diff, ci: w.ci, p: Some(w.p_two_sided) });
+                out.push(Observation { statistic: "believability t-test", item: t.condition.clone(), estimate: w.mean_diff, ci: Some(w.ci), p: Some(w.p_two_sided) });
             }
         }
     }
+    analysis.styles.iter().for_each(|s| out.extend(style_observations(s)));
     Ok(out)
+}
+
+/// The laugh designs' statistics of one rating scale: each style's mean rating (t CI over its
+/// ratings, the report's between-subjects convention) and, from the Type II ANOVA, the style
+/// effect and the style × label interaction (estimate: partial η²; power: p < .05).
+fn style_observations(s: &super::styles::StyleScale) -> Vec<Observation> {
+    let scale = s.scale.name();
+    let mut out = Vec::new();
+    for cell in &s.per_style {
+        let Some(d) = &cell.stats else { continue };
+        let Some(sd) = d.sd else { continue };
+        let Ok(t) = super::stats::descriptive::t_critical(0.95, (d.n - 1) as f64) else { continue };
+        let half = t * sd / (d.n as f64).sqrt();
+        let ci = (d.mean - half, d.mean + half);
+        out.push(Observation { statistic: "style mean", item: format!("{scale} {}", cell.style), estimate: d.mean, ci: Some(ci), p: None });
+    }
+    if let Ok(table) = s.type_ii.as_result() {
+        for (statistic, term) in [("style effect", "style"), ("style x label interaction", "style:label")] {
+            if let Some(row) = table.row(term) {
+                if let (Some(p), Some(eta)) = (row.p, row.partial_eta2) {
+                    out.push(Observation { statistic, item: scale.to_string(), estimate: eta, ci: None, p: Some(p) });
+                }
+            }
+        }
+    }
+    out
 }
 
 /// The row of one statistic at one size from its observations over the runs.
@@ -177,7 +208,7 @@ fn summarise(size: usize, statistic: &str, item: &str, obs: &[&Observation]) -> 
         item: item.into(),
         runs: obs.len(),
         estimate_mean: estimates.iter().sum::<f64>() / n,
-        ci_width_mean: obs.iter().map(|o| o.ci.1 - o.ci.0).sum::<f64>() / n,
+        ci_width_mean: obs.iter().map(|o| o.ci.map(|(low, high)| high - low)).sum::<Option<f64>>().map(|w| w / n),
         spread_low: low,
         spread_high: high,
         spread_width: high - low,
@@ -215,7 +246,8 @@ fn rows_of_size(size: usize, observations: &[Observation]) -> Vec<PowerRow> {
         let mean = |f: fn(&PowerRow) -> f64| items.iter().map(|r| f(r)).sum::<f64>() / items.len() as f64;
         let power = items.iter().map(|r| r.power).collect::<Option<Vec<f64>>>().map(|p| p.iter().sum::<f64>() / p.len() as f64);
         let (low, high) = (mean(|r| r.spread_low), mean(|r| r.spread_high));
-        let summary = PowerRow { size, statistic: statistic.clone(), item: "mean".into(), runs: items.iter().map(|r| r.runs).min().unwrap_or(0), estimate_mean: mean(|r| r.estimate_mean), ci_width_mean: mean(|r| r.ci_width_mean), spread_low: low, spread_high: high, spread_width: mean(|r| r.spread_width), power };
+        let ci_width_mean = items.iter().map(|r| r.ci_width_mean).sum::<Option<f64>>().map(|w| w / items.len() as f64);
+        let summary = PowerRow { size, statistic: statistic.clone(), item: "mean".into(), runs: items.iter().map(|r| r.runs).min().unwrap_or(0), estimate_mean: mean(|r| r.estimate_mean), ci_width_mean, spread_low: low, spread_high: high, spread_width: mean(|r| r.spread_width), power };
         rows.push(summary);
     }
     rows
@@ -258,5 +290,20 @@ mod tests {
         };
         let (none, large) = (power(0.0), power(1.5));
         assert!(large > 0.8 && none < 0.3, "power with no difference {none}, with 1.5 points {large}");
+    }
+
+    #[test]
+    fn the_laugh_designs_interaction_is_found_more_often_with_more_participants() {
+        let model = SimOptions { design: Design::LaughMotion, seed: 9, ..SimOptions::default() };
+        let t = run(&model, &[5, 40], 40, &|| {}).unwrap();
+        let row = |statistic: &str, size: usize| t.rows.iter().find(|r| r.statistic == statistic && r.item == "mean" && r.size == size).unwrap_or_else(|| panic!("no {statistic} at {size}"));
+        let interaction = |size| row("style x label interaction", size).power.unwrap();
+        assert!(interaction(5) < 0.3 && interaction(40) > 0.7, "the seed's interaction: power {} at 5, {} at 40 participants", interaction(5), interaction(40));
+        let style = row("style effect", 40).power.unwrap();
+        assert!(style <= 0.15, "no style effect is simulated, so it is found about as often as alpha: {style}");
+        assert_eq!(row("style effect", 40).ci_width_mean, None, "an F-test reports no CI");
+        let mean = row("style mean", 40);
+        let (width, spread) = (mean.ci_width_mean.unwrap(), mean.spread_width);
+        assert!(width > 0.1 && width < spread, "the ratings' t CI ignores that a participant's ratings go together: {width} vs spread {spread}");
     }
 }

@@ -225,7 +225,7 @@ fn power_panel(area: &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>, ti
 /// `power.png`: mean 95 % CI width per statistic against size (line and dots), the 2.5–97.5 %
 /// spread of the estimates (crosses), and, when a t-test was simulated, its power.
 pub(super) fn power(table: &PowerTable) -> Result<Vec<u8>, ReportError> {
-    let widths = power_series(table, |r| Some(r.ci_width_mean));
+    let widths = power_series(table, |r| r.ci_width_mean);
     let spreads = power_series(table, |r| Some(r.spread_width));
     let powers = power_series(table, |r| r.power);
     let x_max = table.sizes.iter().copied().max().unwrap_or(1) as f64;
@@ -234,7 +234,8 @@ pub(super) fn power(table: &PowerTable) -> Result<Vec<u8>, ReportError> {
         let (left, right) = if powers.is_empty() { (root.clone(), None) } else { let (l, r) = root.split_horizontally(680); (l, Some(r)) };
         power_panel(&left, "95% CI width (line) and spread of estimates (×)", "width", x_max, &widths, &spreads)?;
         if let Some(right) = right {
-            power_panel(&right, &format!("t-test power, difference {}", table.group_difference), "power", x_max, &powers, &[])?;
+            let title = if table.rows.iter().any(|r| r.statistic.ends_with("t-test")) { format!("t-test power, difference {}", table.group_difference) } else { "power of the F-tests (p < .05)".to_string() };
+            power_panel(&right, &title, "power", x_max, &powers, &[])?;
         }
         Ok(())
     })

@@ -15,9 +15,9 @@ fn table(power: &PowerTable) -> Table {
         .rows
         .iter()
         .map(|r| {
-            let numbers = [r.estimate_mean, r.ci_width_mean, r.spread_low, r.spread_high, r.spread_width].map(|v| Cell::num(v, 3));
-            let lead = [Cell::count(r.size), Cell::text(&r.statistic), Cell::text(&r.item), Cell::count(r.runs)];
-            Row::new(lead.into_iter().chain(numbers).chain([Cell::opt_or_empty(r.power, 3)]).collect())
+            let lead = [Cell::count(r.size), Cell::text(&r.statistic), Cell::text(&r.item), Cell::count(r.runs), Cell::num(r.estimate_mean, 3), Cell::opt_or_empty(r.ci_width_mean, 3)];
+            let spread = [r.spread_low, r.spread_high, r.spread_width].map(|v| Cell::num(v, 3));
+            Row::new(lead.into_iter().chain(spread).chain([Cell::opt_or_empty(r.power, 3)]).collect())
         })
         .collect();
     let fields = ["size", "statistic", "item", "runs", "estimate_mean", "ci_width_mean", "spread_low", "spread_high", "spread_width", "power"];
