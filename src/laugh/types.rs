@@ -29,6 +29,8 @@ pub enum TypesError {
     Id(String),
     #[error("type {0:?} appears twice")]
     Duplicate(String),
+    #[error("type {0:?} is not a label of the `laughs` label set (stimuli/labels/laughs.toml), which names the types")]
+    NotALabel(String),
     #[error("type {id:?}: AU {au} is not in the catalog")]
     UnknownAu { id: String, au: u16 },
     #[error("type {id:?}: AU {au} cannot be shown on one side only")]
@@ -170,7 +172,6 @@ struct TableFile {
 #[serde(deny_unknown_fields)]
 struct RawType {
     id: String,
-    name: String,
     figure: u32,
     kind: Kind,
     description: String,
@@ -193,10 +194,10 @@ impl LaughTable {
         let file: TableFile = toml::from_str(text).map_err(|e| TypesError::Toml(e.to_string()))?;
         let mut types: Vec<LaughType> = Vec::with_capacity(file.types.len());
         for raw in file.types {
-            let laugh = LaughType {
+            let mut laugh = LaughType {
                 variation: raw.variation.over(file.variation),
                 id: raw.id,
-                name: raw.name,
+                name: String::new(),
                 figure: raw.figure,
                 kind: raw.kind,
                 description: raw.description,
@@ -205,6 +206,7 @@ impl LaughTable {
                 tracks: raw.tracks,
             };
             laugh.validate(catalog)?;
+            laugh.name = type_name(&laugh.id)?;
             if types.iter().any(|t| t.id == laugh.id) {
                 return Err(TypesError::Duplicate(laugh.id));
             }
@@ -234,6 +236,12 @@ impl LaughTable {
     pub fn ids(&self) -> Vec<&str> {
         self.types.iter().map(|t| t.id.as_str()).collect()
     }
+}
+
+/// A type's name: its label's in the `laughs` label set, where raters read it (declared once).
+fn type_name(id: &str) -> Result<String, TypesError> {
+    let set = crate::study::labels::LabelSet::named("laughs").ok_or_else(|| TypesError::NotALabel(id.to_string()))?;
+    set.label(id).map(|l| l.name.clone()).ok_or_else(|| TypesError::NotALabel(id.to_string()))
 }
 
 fn is_snake_case(id: &str) -> bool {
@@ -311,8 +319,9 @@ impl LaughType {
 mod tests {
     use super::*;
 
-    /// The laugh types are declared twice for two readers: here how each is performed, in the
-    /// `laughs` label set (stimuli/labels/laughs.toml) what raters read. Ids and names agree.
+    /// The laugh table says how each type is performed, the `laughs` label set
+    /// (stimuli/labels/laughs.toml) what raters read; the table takes its names from the set, and
+    /// lists the set's labels in the set's order.
     #[test]
     fn the_laughs_label_set_names_the_same_types_in_the_same_order() {
         let set = crate::study::labels::LabelSet::named("laughs").expect("the laughs label set is declared");
@@ -346,16 +355,18 @@ mod tests {
     #[test]
     fn bad_tables_name_the_type() {
         let catalog = Catalog::built_in();
-        let good = "[variation]\ntiming = 0.1\npeak = 0.1\ndelay = 0.0\nrate = 0.1\npulse_peak = 0.1\n\n[[type]]\nid = \"grin\"\nname = \"Grin\"\nfigure = 1\nkind = \"smile\"\ndescription = \"d\"\nenvelope = { lead = 0.2, onset = 0.5, apex = 1.0, offset = 0.5, tail = 0.2 }\ntracks = [{ au = 12, peak = 0.8 }]\n";
+        let good = "[variation]\ntiming = 0.1\npeak = 0.1\ndelay = 0.0\nrate = 0.1\npulse_peak = 0.1\n\n[[type]]\nid = \"sly_smile\"\nfigure = 1\nkind = \"smile\"\ndescription = \"d\"\nenvelope = { lead = 0.2, onset = 0.5, apex = 1.0, offset = 0.5, tail = 0.2 }\ntracks = [{ au = 12, peak = 0.8 }]\n";
         assert_eq!(LaughTable::from_toml(good, catalog).unwrap().len(), 1);
         let bad = |from: &str, to: &str| LaughTable::from_toml(&good.replace(from, to), catalog).unwrap_err().to_string();
-        assert_eq!(bad("au = 12,", "au = 3,"), "type \"grin\": AU 3 is not in the catalog");
-        assert_eq!(bad("peak = 0.8", "peak = 1.5"), "type \"grin\": AU 12 peak is 1.5; it must be in [0, 1]");
-        assert_eq!(bad("kind = \"smile\"", "kind = \"laugh\""), "type \"grin\": a laugh needs pulses");
-        assert_eq!(bad("{ au = 12, peak = 0.8 }", "{ au = 12, peak = 0.8 }, { au = 12, side = \"left\", peak = 0.2 }"), "type \"grin\": AU 12 appears twice on overlapping sides");
-        assert_eq!(bad("{ au = 12, peak = 0.8 }", "{ au = 25, side = \"left\", peak = 0.2 }"), "type \"grin\": AU 25 cannot be shown on one side only");
-        assert_eq!(bad("id = \"grin\"", "id = \"Big Grin\""), "type \"Big Grin\": an id is snake_case (a-z, 0-9, _), 1-40 characters");
-        assert_eq!(bad("onset = 0.5", "onset = 0.0"), "type \"grin\": envelope.onset is 0; it must be in (0, 20] seconds");
+        assert_eq!(bad("au = 12,", "au = 3,"), "type \"sly_smile\": AU 3 is not in the catalog");
+        assert_eq!(bad("peak = 0.8", "peak = 1.5"), "type \"sly_smile\": AU 12 peak is 1.5; it must be in [0, 1]");
+        assert_eq!(bad("kind = \"smile\"", "kind = \"laugh\""), "type \"sly_smile\": a laugh needs pulses");
+        assert_eq!(bad("{ au = 12, peak = 0.8 }", "{ au = 12, peak = 0.8 }, { au = 12, side = \"left\", peak = 0.2 }"), "type \"sly_smile\": AU 12 appears twice on overlapping sides");
+        assert_eq!(bad("{ au = 12, peak = 0.8 }", "{ au = 25, side = \"left\", peak = 0.2 }"), "type \"sly_smile\": AU 25 cannot be shown on one side only");
+        assert_eq!(bad("id = \"sly_smile\"", "id = \"Big Grin\""), "type \"Big Grin\": an id is snake_case (a-z, 0-9, _), 1-40 characters");
+        assert_eq!(bad("onset = 0.5", "onset = 0.0"), "type \"sly_smile\": envelope.onset is 0; it must be in (0, 20] seconds");
         assert!(bad("figure = 1", "figure = -1").starts_with("the laugh-type table is not valid TOML"));
+        assert_eq!(bad("id = \"sly_smile\"", "id = \"grin\""), "type \"grin\" is not a label of the `laughs` label set (stimuli/labels/laughs.toml), which names the types");
+        assert_eq!(LaughTable::from_toml(good, catalog).unwrap().get("sly_smile").unwrap().name, "Sly smile", "the name is the label set's");
     }
 }
