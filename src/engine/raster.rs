@@ -45,6 +45,8 @@ const SUB: i64 = 1 << SUBPIXEL_BITS;
 const TILE: usize = TILE_SIZE as usize;
 const NO_TRIANGLE: u32 = u32::MAX;
 const MAX_SAMPLES: usize = 16;
+/// A tile's worth of empty samples, to clear the id buffer from.
+static NO_TRIANGLES: [u32; TILE * TILE * MAX_SAMPLES] = [NO_TRIANGLE; TILE * TILE * MAX_SAMPLES];
 
 /// One scene item: an indexed triangle mesh in world space. Several make a scene.
 ///
@@ -472,8 +474,8 @@ impl Setup {
                     "scene item {item}, triangle {t}: index out of range {idx:?} ({n} vertices)"
                 );
                 let (c0, c1, c2) = (codes[i0], codes[i1], codes[i2]);
-                if c0 & c1 & c2 != 0 {
-                    continue; // entirely outside one plane
+                if c0 & c1 & c2 != 0 || (i0 == i1 && i1 == i2) {
+                    continue; // entirely outside one plane, or a point (hidden hair is given so)
                 }
                 let corners = [
                     ClipVertex { h: homogeneous[i0], bary: Vec3::X },
@@ -749,7 +751,8 @@ fn rasterize_tile_n<const N: usize>(setup: &Setup, tile: usize, pattern: &[(i64,
     let depth = &mut buffers.depth[..used];
     let ids = &mut buffers.id[..used];
     depth.fill(0.0);
-    ids.fill(NO_TRIANGLE);
+    // A copy, not a fill: the fill of a non-zero value is a scalar loop.
+    ids.copy_from_slice(&NO_TRIANGLES[..used]);
     let pattern: &[(i64, i64); N] = pattern.try_into().expect("pattern length matches N");
     let offsets_px: [(f32, f32); N] =
         std::array::from_fn(|s| (pattern[s].0 as f32 / SUB as f32, pattern[s].1 as f32 / SUB as f32));
@@ -779,10 +782,16 @@ fn rasterize_tile_n<const N: usize>(setup: &Setup, tile: usize, pattern: &[(i64,
         #[cfg(target_arch = "x86_64")]
         let quad = (N == 4).then(|| four_samples::Quad::new(&off, &z_off));
         let step_x = [t.a[0] * SUB, t.a[1] * SUB, t.a[2] * SUB];
+        let step_y = [t.b[0] * SUB, t.b[1] * SUB, t.b[2] * SUB];
+        // Edge values at the top-left corner of the box's first pixel in the current row (exact
+        // integers, so stepping gives the same values as working them out per row).
+        let (fx, fy) = (i64::from(x0) * SUB, i64::from(y0) * SUB);
+        let mut row_start: [i64; 3] = std::array::from_fn(|k| t.a[k] * fx + t.b[k] * fy + t.c[k]);
         for py in y0..=y1 {
-            let fy = i64::from(py) * SUB;
-            let fx = i64::from(x0) * SUB;
-            let mut e: [i64; 3] = std::array::from_fn(|k| t.a[k] * fx + t.b[k] * fy + t.c[k]);
+            let mut e = row_start;
+            for k in 0..3 {
+                row_start[k] += step_y[k];
+            }
             // Each edge's test is monotonic along the row, so the pixels that pass all three
             // form one run. It starts where the last edge that rises along the row passes.
             let skip = (0..3)

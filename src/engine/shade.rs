@@ -256,6 +256,15 @@ impl SkinMaps {
     }
 }
 
+/// How a surface takes the light: wrapped diffuse (light past the terminator) and a specular
+/// lobe's strength and exponent.
+#[derive(Clone, Copy, Debug)]
+struct Surface {
+    wrap: f32,
+    specular: f32,
+    shininess: f32,
+}
+
 /// The appearance channels active in this frame, with their (left, right) weights.
 type ActivePatterns = Vec<(Relief, f32, f32)>;
 
@@ -380,11 +389,16 @@ impl<'a> FaceShader<'a> {
     }
 
     fn lit(&self, f: &Fragment, normal: Vec3, albedo: Vec3, wrap: f32, specular: f32, shininess: f32) -> Vec3 {
+        self.lit_reached(f, normal, albedo, Surface { wrap, specular, shininess }, self.key_reach(f))
+    }
+
+    /// [`Self::lit`] with the fraction of the key light reaching `f` already known.
+    fn lit_reached(&self, f: &Fragment, normal: Vec3, albedo: Vec3, surface: Surface, key_reaches: f32) -> Vec3 {
+        let Surface { wrap, specular, shininess } = surface;
         let view = f.view_dir;
         let Lighting { lights, sky, ground, shadow_floor } = &self.lighting;
         let ambient = sky.lerp(*ground, (0.5 - 0.5 * normal.y).clamp(0.0, 1.0));
         let mut colour = albedo * ambient;
-        let key_reaches = self.key_reach(f);
         for (n, light) in lights.iter().enumerate() {
             let reach = if n == 0 { shadow_floor + (1.0 - shadow_floor) * key_reaches } else { 1.0 };
             let n_dot_l = normal.dot(light.direction);
@@ -480,8 +494,10 @@ impl<'a> FaceShader<'a> {
         // Matte cheeks, an oilier T-zone, pores break up the highlight; wet lids shine.
         let specular = (0.16 + 0.3 * oily) * (1.0 - 0.35 * pores) * (1.0 - hair) * (1.0 - 0.8 * brow) + 0.5 * lips + 1.2 * wet;
         let shininess = 16.0 + 24.0 * lips + 48.0 * wet.min(1.0);
-        let mut colour = self.lit(f, normal, albedo, 0.35 * (1.0 - hair), specular, shininess);
-        colour += self.subsurface_bleed(f, normal, albedo) * (1.0 - hair);
+        let reach = self.key_reach(f);
+        let surface = Surface { wrap: 0.35 * (1.0 - hair), specular, shininess };
+        let mut colour = self.lit_reached(f, normal, albedo, surface, reach);
+        colour += self.subsurface_bleed(normal, albedo, reach) * (1.0 - hair);
         // The mouth interior is dark, more so the deeper it lies behind the lips.
         if mouth > 0.0 {
             let depth = (1.52 - rest.z).max(0.0);
@@ -500,9 +516,8 @@ impl<'a> FaceShader<'a> {
         let face = 1.0 - painted.lips;
         let strength = face * (0.5 + 0.5 * (painted.cheek + painted.flush + painted.oily).min(1.0));
         let q = rest * 150.0;
-        let pore = value_noise(q);
-        let gx = value_noise(q + Vec3::X * 0.35) - pore;
-        let gy = value_noise(q + Vec3::Y * 0.35) - pore;
+        let [pore, pore_x, pore_y] = value_noise_and_steps(q, 0.35);
+        let (gx, gy) = (pore_x - pore, pore_y - pore);
         let mut bump = Vec3::new(gx, gy, 0.0) * (0.9 * strength);
         let age = smoothstep(28.0, 70.0, self.identity.age);
         let mut crease = 0.0;
@@ -523,14 +538,14 @@ impl<'a> FaceShader<'a> {
     }
 
     /// Light that scattered under the skin: a red glow along the key light's terminator.
-    fn subsurface_bleed(&self, f: &Fragment, normal: Vec3, albedo: Vec3) -> Vec3 {
+    /// `reach`: the fraction of the key light reaching the point ([`Self::key_reach`]).
+    fn subsurface_bleed(&self, normal: Vec3, albedo: Vec3, reach: f32) -> Vec3 {
         let key = &self.lighting.lights[0];
         let n_dot_l = normal.dot(key.direction);
         let edge = (1.0 - (n_dot_l - 0.05).abs() * 4.0).max(0.0);
         if edge == 0.0 {
             return Vec3::ZERO;
         }
-        let reach = self.key_reach(f);
         albedo * key.colour * Vec3::new(0.16, 0.035, 0.02) * edge * (0.3 + 0.7 * reach)
     }
 
@@ -654,7 +669,10 @@ impl<'a> FaceShader<'a> {
 /// How far the body point `p` lies below the top's neckline (negative: bare neck). The
 /// neckline is lower at the front than at the back.
 pub(crate) fn below_neckline(body: Option<&Body>, p: Vec3) -> f32 {
-    let around = p.x.atan2(p.z - 0.25).cos();
+    // The cosine of the angle around the neck from the front, cos(atan2(x, z)) = z / |(x, z)|.
+    let (x, z) = (p.x, p.z - 0.25);
+    let r = (x * x + z * z).sqrt();
+    let around = if r > 0.0 { z / r } else { 1.0 };
     let shift = body.map_or(0.0, |b| b.shift.y);
     let neckline = 5.64 + shift + 0.09 * (1.0 - around);
     neckline - p.y
@@ -948,18 +966,55 @@ fn floor_i32(x: f32) -> i32 {
     t - i32::from((t as f32) > x)
 }
 
-/// Trilinear value noise in [0, 1].
-fn value_noise(p: Vec3) -> f32 {
+/// The lattice cell of `p` (its lowest corner) and the smoothed position inside it.
+#[inline]
+fn lattice(p: Vec3) -> ([i32; 3], Vec3) {
     let (x, y, z) = (floor_i32(p.x), floor_i32(p.y), floor_i32(p.z));
     let t = p - Vec3::new(x as f32, y as f32, z as f32);
-    let s = t * t * (Vec3::splat(3.0) - 2.0 * t);
-    let corner = |dx, dy, dz| hash(x + dx, y + dy, z + dz);
+    ([x, y, z], t * t * (Vec3::splat(3.0) - 2.0 * t))
+}
+
+/// Trilinear blend of a cell's corner values, `corner(dx, dy, dz)` with each offset 0 or 1.
+#[inline]
+fn blend_corners(s: Vec3, corner: impl Fn(usize, usize, usize) -> f32) -> f32 {
     let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
     let x00 = lerp(corner(0, 0, 0), corner(1, 0, 0), s.x);
     let x10 = lerp(corner(0, 1, 0), corner(1, 1, 0), s.x);
     let x01 = lerp(corner(0, 0, 1), corner(1, 0, 1), s.x);
     let x11 = lerp(corner(0, 1, 1), corner(1, 1, 1), s.x);
     lerp(lerp(x00, x10, s.y), lerp(x01, x11, s.y), s.z)
+}
+
+/// Trilinear value noise in [0, 1].
+fn value_noise(p: Vec3) -> f32 {
+    let ([x, y, z], s) = lattice(p);
+    blend_corners(s, |dx, dy, dz| hash(x + dx as i32, y + dy as i32, z + dz as i32))
+}
+
+/// `value_noise` at `p`, `p + x̂·step` and `p + ŷ·step` (`step` in [0, 1)), the same three
+/// values bit for bit, for a finite-difference gradient: the three cells overlap, so each
+/// lattice hash is worked out once (8 to 16 of them instead of 24).
+fn value_noise_and_steps(p: Vec3, step: f32) -> [f32; 3] {
+    let ([x, y, z], s) = lattice(p);
+    let ([xx, _, _], sx) = lattice(p + Vec3::X * step);
+    let ([_, yy, _], sy) = lattice(p + Vec3::Y * step);
+    // The cells start at x or x + 1 and y or y + 1: hashes of a 3 × 3 × 2 block at (x, y, z),
+    // of which the corner (x + 2, y + 2) is never needed.
+    let (wide, tall) = (xx != x, yy != y);
+    let mut h = [[[0.0f32; 2]; 3]; 3];
+    for (i, column) in h.iter_mut().enumerate().take(2 + usize::from(wide)) {
+        for (j, pair) in column.iter_mut().enumerate().take(2 + usize::from(tall)) {
+            if i < 2 || j < 2 {
+                *pair = [hash(x + i as i32, y + j as i32, z), hash(x + i as i32, y + j as i32, z + 1)];
+            }
+        }
+    }
+    let (ox, oy) = (usize::from(wide), usize::from(tall));
+    [
+        blend_corners(s, |dx, dy, dz| h[dx][dy][dz]),
+        blend_corners(sx, |dx, dy, dz| h[dx + ox][dy][dz]),
+        blend_corners(sy, |dx, dy, dz| h[dx][dy + oy][dz]),
+    ]
 }
 
 /// Two octaves of value noise in [0, 1].
@@ -991,6 +1046,28 @@ mod tests {
             let v = value_noise(Vec3::new(i as f32 * 0.37, i as f32 * -0.11, 0.5));
             assert!((0.0..=1.0).contains(&v));
         }
+    }
+
+    #[test]
+    fn noise_steps_are_the_three_noise_values_bit_for_bit() {
+        // Points on both sides of zero and on both sides of cell boundaries, as pores see them.
+        for i in 0..4000 {
+            let q = Vec3::new(i as f32 * 0.173 - 300.0, i as f32 * -0.291 + 500.0, (i % 97) as f32 * 0.61 - 20.0);
+            let [n, nx, ny] = value_noise_and_steps(q, 0.35);
+            assert_eq!(n.to_bits(), value_noise(q).to_bits(), "{q}");
+            assert_eq!(nx.to_bits(), value_noise(q + Vec3::X * 0.35).to_bits(), "{q} x");
+            assert_eq!(ny.to_bits(), value_noise(q + Vec3::Y * 0.35).to_bits(), "{q} y");
+        }
+    }
+
+    #[test]
+    fn the_neckline_is_lower_at_the_front_than_at_the_back() {
+        let front = below_neckline(None, Vec3::new(0.0, 5.6, 1.0));
+        let back = below_neckline(None, Vec3::new(0.0, 5.6, -0.5));
+        let side = below_neckline(None, Vec3::new(0.75, 5.6, 0.25));
+        assert!((front - 0.04).abs() < 1e-5, "{front}");
+        assert!((back - 0.22).abs() < 1e-5, "{back}");
+        assert!((side - 0.13).abs() < 1e-5, "{side}");
     }
 
     #[test]
