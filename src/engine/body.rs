@@ -4,7 +4,11 @@
 //! In: the posed head (its neck-cut loop, in order). Out: [`Body`], a triangle mesh whose first
 //! ring is the posed neck-cut loop (so there is no seam or gap), then rings of superellipse
 //! cross-sections that widen from the neck into the shoulders and run down out of the frame.
-//! Invariant: the same posed head gives the same mesh; all rings have the loop's vertex count.
+//! The shoulders can be raised (`shoulders` in [0, 1]: 0 at rest, 1 a full shrug of about 3.5 cm
+//! at the shoulder tops, less at the front and back and none at the frame's bottom), which laughs
+//! pulse and breathing heaves (see [`crate::engine::timeline::Timeline::shoulders`]).
+//! Invariant: the same posed head and shoulder lift give the same mesh; all rings have the
+//! loop's vertex count; a lift of 0 is the rest body, bit for bit.
 
 use std::sync::OnceLock;
 
@@ -46,6 +50,13 @@ const RINGS: [Ring; 9] = [
 
 /// The centre of the neck cut in depth, for the angle of each loop vertex around the neck.
 const NECK_AXIS_Z: f32 = 0.25;
+
+/// How far a full shrug raises the shoulder tops (decimetres).
+const SHRUG_DM: f32 = 0.35;
+
+/// The share of the shrug each ring of [`RINGS`] takes: little at the neck, all at the
+/// shoulders, none at the bottom (which stays below the frame).
+const SHRUG_BY_RING: [f32; 9] = [0.2, 0.45, 0.85, 1.0, 1.0, 0.8, 0.5, 0.2, 0.0];
 
 /// The neck and shoulders of one frame.
 #[derive(Debug, Clone)]
@@ -102,8 +113,9 @@ fn ring_point(ring: &Ring, theta: f32) -> Vec3 {
 }
 
 impl Body {
-    /// The body under `posed`: the posed neck-cut loop on top of the fixed rings.
-    pub fn new(model: &FaceModel, posed: &Posed, identity: &Identity) -> Body {
+    /// The body under `posed`: the posed neck-cut loop on top of the fixed rings, the shoulders
+    /// raised by `shoulders` (0 at rest to 1, a full shrug).
+    pub fn new(model: &FaceModel, posed: &Posed, identity: &Identity, shoulders: f32) -> Body {
         let t = template(model);
         let mut positions: Vec<Vec3> = t.loop_vertices.iter().map(|&v| posed.positions[v as usize]).collect();
         // Narrower shoulders for women; the rings under the neck take the neck's own size
@@ -119,7 +131,7 @@ impl Body {
             let widen = ((i / n) as f32 / 4.0).min(1.0);
             let across = neck.x + (shoulders - neck.x) * widen;
             let deep = neck.y + (1.0 - neck.y) * widen;
-            Vec3::new(p.x * across, p.y, NECK_AXIS_Z + (p.z - NECK_AXIS_Z) * deep) + shift
+            Vec3::new(p.x * across, p.y + shrug(i / n, p.x, shoulders), NECK_AXIS_Z + (p.z - NECK_AXIS_Z) * deep) + shift
         }));
         let normals = vertex_normals(&positions, &t.triangles);
         // The top ring takes the head's own normals, so the shading is continuous across the cut.
@@ -129,6 +141,16 @@ impl Body {
         }
         Body { shift, positions, normals, triangles: t.triangles.clone() }
     }
+}
+
+/// How far the shrug raises a point of ring `ring` at `x` across: the shoulder tops (the sides)
+/// fully, the front and back of the chest half as far.
+fn shrug(ring: usize, x: f32, shoulders: f32) -> f32 {
+    if shoulders == 0.0 {
+        return 0.0;
+    }
+    let side = (x.abs() / RINGS[ring].half_width).min(1.0);
+    shoulders * SHRUG_DM * SHRUG_BY_RING[ring] * (0.5 + 0.5 * side * side)
 }
 
 /// The neck cut's width (x) and depth (y) among `positions`.
@@ -164,7 +186,7 @@ mod tests {
         let model = FaceModel::embedded();
         let identity = IdentityTable::built_in().get("wf1").unwrap();
         let posed = crate::engine::pose_expression(&crate::facs::Expression::neutral(), identity).unwrap();
-        let body = Body::new(model, &posed, identity);
+        let body = Body::new(model, &posed, identity, 0.0);
         let loop_vertices = model.group("neck_cut_loop").unwrap();
         assert_eq!(loop_vertices.len(), 42);
         for (j, &v) in loop_vertices.iter().enumerate() {
@@ -180,5 +202,22 @@ mod tests {
         // Shoulders: well wider than the neck cut (half-width 0.5).
         let widest = body.positions.iter().map(|p| p.x.abs()).fold(0.0, f32::max);
         assert!(widest > 1.25, "{widest}");
+    }
+
+    #[test]
+    fn a_shrug_raises_the_shoulder_tops_and_leaves_the_neck_cut_and_the_bottom() {
+        let model = FaceModel::embedded();
+        let identity = IdentityTable::built_in().get("wm1").unwrap();
+        let posed = crate::engine::pose_expression(&crate::facs::Expression::neutral(), identity).unwrap();
+        let (rest, up) = (Body::new(model, &posed, identity, 0.0), Body::new(model, &posed, identity, 1.0));
+        let n = model.group("neck_cut_loop").unwrap().len();
+        let rise: Vec<f32> = rest.positions.iter().zip(&up.positions).map(|(a, b)| b.y - a.y).collect();
+        assert!(rise[..n].iter().all(|&r| r == 0.0), "the neck cut stays on the head");
+        assert!(rise[rise.len() - n..].iter().all(|&r| r == 0.0), "the bottom ring stays below the frame");
+        let top = rise.iter().copied().fold(0.0, f32::max);
+        assert!((top - SHRUG_DM).abs() < 1e-4, "the shoulder tops rise a full {SHRUG_DM} dm: {top}");
+        let front = rise[4 * n..5 * n].iter().copied().fold(f32::MAX, f32::min);
+        assert!(front >= 0.5 * SHRUG_DM - 1e-4 && front < 0.6 * SHRUG_DM, "the chest's front rises about half as far: {front}");
+        assert!(rest.positions.iter().zip(&up.positions).all(|(a, b)| a.x == b.x && a.z == b.z), "a shrug only lifts");
     }
 }

@@ -72,11 +72,14 @@ pub struct FrameSettings {
     pub look: Look,
     /// Realistic or cartoon drawing of the same geometry.
     pub style: Style,
+    /// The body's pose in this frame: how far the shoulders are raised, 0 (rest) to 1 (a full
+    /// shrug); a timeline sets it per frame ([`timeline::Timeline::shoulders_at`]).
+    pub shoulders: f32,
 }
 
 impl Default for FrameSettings {
     fn default() -> Self {
-        FrameSettings { width: DEFAULT_SIZE.0, height: DEFAULT_SIZE.1, threads: None, look: Look::default(), style: Style::Realistic }
+        FrameSettings { width: DEFAULT_SIZE.0, height: DEFAULT_SIZE.1, threads: None, look: Look::default(), style: Style::Realistic, shoulders: 0.0 }
     }
 }
 
@@ -111,7 +114,7 @@ pub fn render_frame(expression: &Expression, identity: &Identity, settings: Fram
         return Ok(Frame::Rgb(image));
     }
     let camera = portrait_camera(posed.anchor, settings.width, settings.height);
-    let scene = Scene::new(&posed, identity, camera.eye);
+    let scene = Scene::new(&posed, identity, camera.eye, settings.shoulders);
     let visibility = raster::visibility(&scene.items(&posed), &camera, &still_options(settings.threads));
     let n = visibility.samples_per_pixel;
     let alpha: Vec<u8> = visibility
@@ -143,12 +146,12 @@ struct Scene {
 }
 
 impl Scene {
-    /// The scene of `posed` for a camera at `eye`.
-    fn new(posed: &Posed, identity: &Identity, eye: Vec3) -> Scene {
+    /// The scene of `posed` for a camera at `eye`, the shoulders raised by `shoulders`.
+    fn new(posed: &Posed, identity: &Identity, eye: Vec3, shoulders: f32) -> Scene {
         let model = FaceModel::embedded();
         let hair = hair::HairModel::cached(model, identity, &posed.neutral).posed(model, posed);
         let hair_seen = hair.seen_from(eye);
-        Scene { model, body: body::Body::new(model, posed, identity), hair, hair_seen }
+        Scene { model, body: body::Body::new(model, posed, identity, shoulders), hair, hair_seen }
     }
 
     /// The scene items as the camera sees them: the head's parts, the body and the hair.
@@ -199,13 +202,13 @@ pub fn parse_size(text: &str) -> Result<(u32, u32), String> {
 
 /// Rasterises and shades an already posed head.
 pub fn render_posed(posed: &Posed, identity: &Identity, settings: FrameSettings) -> Result<RgbImage, EngineError> {
-    let FrameSettings { width, height, threads, look, style } = settings;
+    let FrameSettings { width, height, threads, look, style, shoulders } = settings;
     if !(16..=4096).contains(&width) || !(16..=4096).contains(&height) {
         return Err(EngineError::Size(width, height));
     }
     let model = FaceModel::embedded();
     let camera = portrait_camera(posed.anchor, width, height);
-    let holder = Scene::new(posed, identity, camera.eye);
+    let holder = Scene::new(posed, identity, camera.eye, shoulders);
     let scene = holder.items(posed);
     if style == Style::Cartoon {
         let paint = shade::SkinPaint::new(model, identity);
@@ -252,6 +255,19 @@ mod tests {
 
     fn small() -> FrameSettings {
         FrameSettings { width: 32, height: 32, threads: Some(1), ..Default::default() }
+    }
+
+    /// Raised shoulders move the bottom of the picture (the shoulders and the neckline), not the
+    /// face: the rows of the face are the same bytes.
+    #[test]
+    fn raised_shoulders_change_the_shoulders_not_the_face() {
+        let identity = IdentityTable::built_in().get("wm1").unwrap();
+        let at = |shoulders| render_still(&Expression::neutral(), identity, FrameSettings { width: 96, height: 96, threads: Some(1), shoulders, ..Default::default() }).unwrap();
+        let (rest, up) = (at(0.0), at(1.0));
+        let row = 96 * 3;
+        assert_eq!(rest.data[..50 * row], up.data[..50 * row], "the face (top half) is untouched");
+        let bottom: f64 = rest.data[80 * row..].iter().zip(&up.data[80 * row..]).map(|(a, b)| (f64::from(*a) - f64::from(*b)).abs()).sum::<f64>() / (16 * row) as f64;
+        assert!(bottom > 2.0, "the shoulders rise into the bottom rows: mean change {bottom:.2} of 255");
     }
 
     /// Every catalog AU at every letter intensity, on every side it allows, renders, and

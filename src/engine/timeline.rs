@@ -165,6 +165,12 @@ pub struct Timeline {
     #[serde(default = "default_size")]
     pub size: [u32; 2],
     pub tracks: Vec<Track>,
+    /// The body's motion, not an AU: how far the shoulders are raised (0 at rest, 1 a full shrug),
+    /// as `[time_s, lift]` keys in time order, linear between keys and 0 outside them (laughs
+    /// pulse the shoulders and heave the chest; FACS codes the face and head only). Omitted from
+    /// the JSON when empty, which every timeline but a laugh's is.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub shoulders: Vec<[f64; 2]>,
 }
 
 /// What is wrong with a timeline; every message names the track (1-based) it is about.
@@ -190,6 +196,8 @@ pub enum TimelineError {
     Overlap { first: usize, second: usize, au: u16 },
     #[error("the timeline is not valid JSON: {0}")]
     Json(String),
+    #[error("shoulders key {key}: {message}")]
+    Shoulders { key: usize, message: String },
 }
 
 impl Timeline {
@@ -199,7 +207,7 @@ impl Timeline {
     pub fn clip(expression: &Expression, timing: ClipTiming, fps: u32, identity: &str, size: (u32, u32)) -> Timeline {
         let mut tracks = Vec::new();
         push_clip(&mut tracks, expression, timing, 0.0);
-        Timeline { fps, duration_s: timing.total_s(), identity: identity.to_string(), size: [size.0, size.1], tracks }
+        Timeline { fps, duration_s: timing.total_s(), identity: identity.to_string(), size: [size.0, size.1], tracks, shoulders: Vec::new() }
     }
 
     /// A CPT appraisal sequence: one HapFACS clip per step, the steps one after the other.
@@ -209,7 +217,7 @@ impl Timeline {
             push_clip(&mut tracks, step, timing, i as f64 * timing.total_s());
         }
         let duration_s = steps.len() as f64 * timing.total_s();
-        Timeline { fps, duration_s, identity: identity.to_string(), size: [size.0, size.1], tracks }
+        Timeline { fps, duration_s, identity: identity.to_string(), size: [size.0, size.1], tracks, shoulders: Vec::new() }
     }
 
     /// Checks everything a render needs except the identity (see [`crate::engine::identity`]).
@@ -250,7 +258,46 @@ impl Timeline {
                 }
             }
         }
+        self.validate_shoulders()
+    }
+
+    /// The shoulder keys: at most one per frame, times in [0, duration] and rising, lifts in [0, 1].
+    fn validate_shoulders(&self) -> Result<(), TimelineError> {
+        let fail = |key: usize, message: String| Err(TimelineError::Shoulders { key: key + 1, message });
+        if self.shoulders.len() > self.frame_count() + 1 {
+            return fail(self.shoulders.len() - 1, format!("{} keys for {} frames; at most one per frame", self.shoulders.len(), self.frame_count()));
+        }
+        for (k, &[t, lift]) in self.shoulders.iter().enumerate() {
+            if !(t.is_finite() && (0.0..=self.duration_s + 1e-9).contains(&t)) || (k > 0 && t < self.shoulders[k - 1][0]) {
+                return fail(k, format!("time {} s must be in [0, {}] and not before the key before it", short_number(t), self.duration_s));
+            }
+            if !(lift.is_finite() && (0.0..=1.0).contains(&lift)) {
+                return fail(k, format!("lift {} must be in [0, 1]", short_number(lift)));
+            }
+        }
         Ok(())
+    }
+
+    /// How far the shoulders are raised at time `t` (see [`Timeline::shoulders`]), quantised like
+    /// the AU ramps so that held and repeated poses are the same frame.
+    pub fn shoulders_at(&self, t: f64) -> f64 {
+        let keys = &self.shoulders;
+        let Some(after) = keys.iter().position(|k| k[0] > t) else {
+            return keys.last().filter(|k| k[0] == t).map_or(0.0, |k| quantize(k[1]));
+        };
+        if after == 0 {
+            return 0.0;
+        }
+        let ([t0, a], [t1, b]) = (keys[after - 1], keys[after]);
+        quantize(a + (b - a) * (t - t0) / (t1 - t0))
+    }
+
+    /// What identifies the picture of frame `frame` for reuse: its expression, and the shoulder
+    /// lift when the shoulders are raised.
+    pub fn frame_key(&self, frame: usize, catalog: &Catalog) -> Result<String, crate::facs::NotationError> {
+        let expression = self.frame_expression(frame, catalog)?.to_string();
+        let lift = self.shoulders_at(self.time_of(frame));
+        Ok(if lift == 0.0 { expression } else { format!("{expression} shoulders {lift}") })
     }
 
     /// Number of frames: `round(duration_s × fps)`.

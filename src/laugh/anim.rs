@@ -7,7 +7,8 @@
 //! Layout written (Maya's animImportExport format): a header of `animVersion`, `mayaVersion`,
 //! `timeUnit`, `linearUnit`, `angularUnit`, `startTime`, `endTime`; then per track an
 //! `anim ATTR ATTR NODE 0 0 INDEX;` line and an `animData { … keys { TIME VALUE linear linear
-//! 1 1 0; … } }` block. The attribute of a track is `AU12`, or `AU12L` / `AU12R` for one side;
+//! 1 1 0; … } }` block. The attribute of a track is `AU12`, or `AU12L` / `AU12R` for one side,
+//! and `shoulders` for the body's lift when a laugh moves the shoulders;
 //! the node is [`NODE`]; frame `f` is keyed at time `f` in the time unit of the curves' frame
 //! rate (`ntsc` = 30 fps, `film` = 24, `pal` = 25, `ntscf` = 60, else `Nfps`).
 //!
@@ -22,6 +23,9 @@ use super::curves::{CurveTrack, Curves, CurvesError, FORMAT};
 
 /// The node the attributes are written on.
 pub const NODE: &str = "facslab_face";
+/// The attribute of the shoulders' lift (the body's channel, written after the AUs when a laugh
+/// moves the shoulders).
+pub const SHOULDERS: &str = "shoulders";
 /// Largest `.anim` file read, bytes.
 pub const MAX_BYTES: usize = 16 << 20;
 
@@ -122,11 +126,12 @@ pub fn to_anim(curves: &Curves) -> String {
     for (key, value) in header {
         let _ = writeln!(out, "{key} {value};");
     }
-    for (index, track) in curves.tracks.iter().enumerate() {
-        let name = attribute(track.au, track.side);
+    let body = (!curves.shoulders.is_empty()).then(|| (SHOULDERS.to_string(), &curves.shoulders));
+    let attributes = curves.tracks.iter().map(|t| (attribute(t.au, t.side), &t.values)).chain(body);
+    for (index, (name, values)) in attributes.enumerate() {
         let _ = writeln!(out, "anim {name} {name} {NODE} 0 0 {index};");
         out.push_str("animData {\n  input time;\n  output unitless;\n  weighted 0;\n  preInfinity constant;\n  postInfinity constant;\n  keys {\n");
-        for (frame, value) in track.values.iter().enumerate() {
+        for (frame, value) in values.iter().enumerate() {
             let _ = writeln!(out, "    {frame} {value} linear linear 1 1 0;");
         }
         out.push_str("  }\n}\n");
@@ -265,8 +270,12 @@ impl AnimFile {
             .ok_or_else(|| AnimError::Curve { attribute: "timeUnit".into(), message: format!("{:?} is not a frame rate", excerpt(&self.header.time_unit)) })?;
         let (start, end) = (self.header.start_time.round(), self.header.end_time.round());
         let frames = (end - start + 1.0).max(0.0) as usize;
-        let mut tracks = Vec::new();
+        let (mut tracks, mut shoulders) = (Vec::new(), Vec::new());
         for curve in &self.curves {
+            if curve.attribute == SHOULDERS {
+                shoulders = (0..frames.min(super::curves::MAX_FRAMES + 1)).map(|f| sample(&curve.keys, start + f as f64)).collect();
+                continue;
+            }
             let (au, side) = parse_attribute(&curve.attribute)
                 .ok_or_else(|| AnimError::Curve { attribute: excerpt(&curve.attribute), message: "is not an AU attribute like AU12 or AU12L".into() })?;
             if curve.keys.is_empty() {
@@ -276,7 +285,7 @@ impl AnimFile {
             tracks.push(CurveTrack { au, side, values });
         }
         let source = format!("anim file ({} {})", self.header.maya_version, self.header.time_unit);
-        let curves = Curves { format: FORMAT.into(), laugh_type: laugh_type.to_string(), fps, source, tracks, fit: None };
+        let curves = Curves { format: FORMAT.into(), laugh_type: laugh_type.to_string(), fps, source, tracks, fit: None, shoulders };
         curves.validate(catalog)?;
         Ok(curves)
     }
@@ -313,6 +322,11 @@ mod tests {
             assert_eq!(curve.keys, keys, "{}", curve.attribute);
         }
         assert_eq!(file.to_curves("sly_smile", catalog).unwrap().tracks, curves.tracks);
+        let laugh = perform(LaughTable::built_in().get("laughter").unwrap(), &Take::default()).unwrap();
+        assert!(!laugh.shoulders.is_empty());
+        let back = from_anim(&to_anim(&laugh)).unwrap();
+        assert_eq!(back.curves.last().map(|c| c.attribute.as_str()), Some(SHOULDERS));
+        assert_eq!(back.to_curves("laughter", catalog).unwrap(), Curves { source: back.to_curves("laughter", catalog).unwrap().source, ..laugh }, "the shoulders come back too");
     }
 
     #[test]

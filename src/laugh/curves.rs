@@ -52,6 +52,11 @@ pub struct Curves {
     /// curves written by hand or from the type table.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fit: Option<crate::laugh::fit::FitReport>,
+    /// The body's part, one value per frame: how far the shoulders are raised (0 at rest, 1 a
+    /// full shrug; laughs pulse them and heave the chest). Empty when the body stays at rest
+    /// (fitted curves: face landmarks do not see the shoulders).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub shoulders: Vec<f64>,
 }
 
 /// What is wrong with a curves file; each message names the track (1-based) or field.
@@ -75,6 +80,8 @@ pub enum CurvesError {
     Value { track: usize, au: u16, frame: usize, value: f64 },
     #[error("tracks {first} and {second} both drive AU {au} on overlapping sides")]
     Duplicate { first: usize, second: usize, au: u16 },
+    #[error("shoulders: {0}")]
+    Shoulders(String),
 }
 
 impl Curves {
@@ -125,7 +132,17 @@ impl Curves {
                 return Err(CurvesError::Duplicate { first: j + 1, second: n, au });
             }
         }
-        Ok(())
+        self.validate_shoulders(first)
+    }
+
+    fn validate_shoulders(&self, frames: usize) -> Result<(), CurvesError> {
+        if !self.shoulders.is_empty() && self.shoulders.len() != frames {
+            return Err(CurvesError::Shoulders(format!("{} values; one per frame ({frames}) or none", self.shoulders.len())));
+        }
+        match self.shoulders.iter().enumerate().find(|(_, v)| !(v.is_finite() && (0.0..=1.0).contains(*v))) {
+            Some((frame, value)) => Err(CurvesError::Shoulders(format!("frame {frame}: value {value} is not a number in [0, 1]"))),
+            None => Ok(()),
+        }
     }
 
     /// Every AU the curves move, at its highest value (rounded to a thousandth), in track
@@ -170,7 +187,15 @@ impl Curves {
             }
         }
         let duration_s = self.frame_count() as f64 / fps;
-        Timeline { fps: self.fps, duration_s, identity: identity.to_string(), size: [size.0, size.1], tracks }
+        let shoulders = if self.shoulders.iter().all(|&v| v == 0.0) {
+            Vec::new()
+        } else {
+            let mut keys: Vec<[f64; 2]> = line_runs(&self.shoulders).into_iter().map(|(a, _)| [a as f64 / fps, self.shoulders[a]]).collect();
+            let last = self.shoulders.len() - 1;
+            keys.push([last as f64 / fps, self.shoulders[last]]);
+            keys
+        };
+        Timeline { fps: self.fps, duration_s, identity: identity.to_string(), size: [size.0, size.1], tracks, shoulders }
     }
 }
 
@@ -215,7 +240,27 @@ mod tests {
                 CurveTrack { au: AuCode(26), side: Laterality::Both, values: wobble },
             ],
             fit: None,
+            shoulders: (0..31).map(|f| if f < 5 { 0.0 } else { 0.3 + 0.2 * (f as f64 * 1.9).sin() }).collect(),
         }
+    }
+
+    #[test]
+    fn the_timeline_raises_the_shoulders_sample_for_sample() {
+        let curves = sample();
+        let timeline = curves.to_timeline("wm1", (64, 64));
+        timeline.validate(Catalog::built_in()).unwrap();
+        for (f, &v) in curves.shoulders.iter().enumerate() {
+            let got = timeline.shoulders_at(timeline.time_of(f));
+            assert!((got - v).abs() <= RAMP_STEP, "frame {f}: {got} vs {v}");
+        }
+        let json = Curves::from_json(&curves.to_json(), Catalog::built_in()).unwrap();
+        assert_eq!(json.shoulders, curves.shoulders);
+        let still = Curves { shoulders: Vec::new(), ..curves.clone() };
+        assert!(still.to_timeline("wm1", (64, 64)).shoulders.is_empty() && !still.to_json().contains("shoulders"), "no body motion, no field");
+        let bad = Curves { shoulders: vec![0.5; 7], ..curves.clone() };
+        assert_eq!(bad.validate(Catalog::built_in()).unwrap_err().to_string(), "shoulders: 7 values; one per frame (31) or none");
+        let bad = Curves { shoulders: (0..31).map(|f| if f == 9 { 1.5 } else { 0.0 }).collect(), ..curves };
+        assert_eq!(bad.validate(Catalog::built_in()).unwrap_err().to_string(), "shoulders: frame 9: value 1.5 is not a number in [0, 1]");
     }
 
     #[test]

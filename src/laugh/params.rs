@@ -261,7 +261,7 @@ pub fn to_curves(controllers: &[[f64; 17]], laugh_type: &str, fps: u32, source: 
             CurveTrack { au: AuCode(au), side, values }
         })
         .collect();
-    Curves { format: FORMAT.into(), laugh_type: laugh_type.into(), fps, source: source.into(), tracks, fit: None }
+    Curves { format: FORMAT.into(), laugh_type: laugh_type.into(), fps, source: source.into(), tracks, fit: None, shoulders: Vec::new() }
 }
 
 #[cfg(test)]

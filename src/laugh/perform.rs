@@ -9,7 +9,9 @@
 //! a smoothstep; for laughs, `pulse(t) = 1 − depth + depth × a_k × sin²(π u)` over pulse `k`
 //! (`u` its phase), so the jaw, head and cheeks open and close together at the pulse rate, the
 //! pulses weakening by the type's decay. The seeded variation jitters the phases, each track's
-//! peak and start, the pulse rate (and so the number of pulses) and each pulse's strength.
+//! peak and start, the pulse rate (and so the number of pulses) and each pulse's strength. A
+//! laugh's shoulders (the table's `shoulders`) rise and shake with the same envelope and pulses:
+//! the chest heaves and the shoulders bob with each "ha".
 //!
 //! Invariants: the same type, take and seed give the same bytes (SplitMix64, a fixed draw
 //! order, no platform-dependent maths beyond IEEE `sin`); values are rounded to
@@ -18,7 +20,7 @@
 use crate::seeded::SplitMix64;
 
 use super::curves::{CurveTrack, Curves, FORMAT};
-use super::types::{AuTrack, Envelope, LaughType, Pulses};
+use super::types::{Envelope, LaughType, Pulses};
 
 /// Longest take, seconds.
 pub const MAX_DURATION_S: f64 = 20.0;
@@ -86,13 +88,20 @@ pub fn perform(laugh: &LaughType, take: &Take) -> Result<Curves, PerformError> {
         .map(|track| {
             let peak = (track.peak * take.intensity * (1.0 + v.peak * truncated_normal(&mut rng))).clamp(0.0, 1.0);
             let delay = (track.delay + v.delay * truncated_normal(&mut rng)).max(0.0);
-            let values = (0..frames).map(|f| value_at(track, peak, delay, &envelope, pulses.as_ref(), f as f64 / take.fps as f64)).collect();
+            let values = (0..frames).map(|f| value_at(track.pulse, peak, delay, &envelope, pulses.as_ref(), f as f64 / take.fps as f64)).collect();
             CurveTrack { au: track.au, side: track.side, values }
         })
         .collect();
+    let shoulders = match laugh.shoulders {
+        Some(s) => {
+            let peak = (s.peak * take.intensity * (1.0 + v.peak * truncated_normal(&mut rng))).clamp(0.0, 1.0);
+            (0..frames).map(|f| value_at(s.pulse, peak, 0.0, &envelope, pulses.as_ref(), f as f64 / take.fps as f64)).collect()
+        }
+        None => Vec::new(),
+    };
     let count = pulses.as_ref().map_or(0, |p| p.len());
     let source = format!("laugh table: {}, seed {}, intensity {}, {count} pulses", laugh.id, take.seed, take.intensity);
-    Ok(Curves { format: FORMAT.into(), laugh_type: laugh.id.clone(), fps: take.fps, source, tracks, fit: None })
+    Ok(Curves { format: FORMAT.into(), laugh_type: laugh.id.clone(), fps: take.fps, source, tracks, fit: None, shoulders })
 }
 
 /// FNV-1a of the type's id, so one seed gives different takes of different types.
@@ -178,8 +187,10 @@ fn pulse_at(pulses: &[Pulse], depth: f64, t: f64) -> f64 {
     1.0 - depth + depth * open
 }
 
-fn value_at(track: &AuTrack, peak: f64, delay: f64, e: &Envelope, pulses: Option<&Vec<Pulse>>, t: f64) -> f64 {
-    let pulse = pulses.map_or(1.0, |p| pulse_at(p, track.pulse, t));
+/// A track's value at `t`: `peak` under the envelope (started `delay` late), shaken by the
+/// pulses to `depth`.
+fn value_at(depth: f64, peak: f64, delay: f64, e: &Envelope, pulses: Option<&Vec<Pulse>>, t: f64) -> f64 {
+    let pulse = pulses.map_or(1.0, |p| pulse_at(p, depth, t));
     let value = (peak * envelope_at(e, delay, t) * pulse).clamp(0.0, 1.0);
     (value / VALUE_STEP).round() * VALUE_STEP
 }
@@ -233,6 +244,12 @@ mod tests {
             .map(|seed| bursts(track(&perform(table.get("laughter").unwrap(), &Take { seed, ..Take::default() }).unwrap(), 26)))
             .collect();
         assert!(counts.len() >= 2, "pulse counts over seven seeds: {counts:?}");
+        // The shoulders rise and bob with the same pulses as the jaw; a smile's stay at rest.
+        let shoulders = &uproarious.shoulders;
+        assert_eq!(bursts(shoulders), n, "a shoulder bob per jaw burst");
+        let top = shoulders.iter().copied().fold(0.0, f64::max);
+        assert!((0.45..=0.75).contains(&top) && shoulders[0] == 0.0, "uproarious laughter lifts the shoulders to {top:.2} of a shrug, from rest");
+        assert!(smile.shoulders.is_empty(), "a smile does not move the shoulders");
     }
 
     #[test]

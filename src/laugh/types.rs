@@ -139,6 +139,18 @@ pub struct AuTrack {
     pub pulse: f64,
 }
 
+/// The shoulders of a laugh (not an AU: the body's own channel, see
+/// [`crate::engine::timeline::Timeline::shoulders`]).
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BodyTrack {
+    /// Lift at the apex, in [0, 1] (1 = a full shrug).
+    pub peak: f64,
+    /// How deep the laugh pulses shake it, in [0, 1].
+    #[serde(default)]
+    pub pulse: f64,
+}
+
 /// One laugh or smile type.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LaughType {
@@ -152,6 +164,8 @@ pub struct LaughType {
     pub pulses: Option<Pulses>,
     pub variation: Variation,
     pub tracks: Vec<AuTrack>,
+    /// The shoulders' rise and shake (laughs); `None`: the body stays at rest.
+    pub shoulders: Option<BodyTrack>,
 }
 
 /// The types in the table's order.
@@ -180,6 +194,8 @@ struct RawType {
     #[serde(default)]
     variation: VariationOverride,
     tracks: Vec<AuTrack>,
+    #[serde(default)]
+    shoulders: Option<BodyTrack>,
 }
 
 impl LaughTable {
@@ -204,6 +220,7 @@ impl LaughTable {
                 envelope: raw.envelope,
                 pulses: raw.pulses,
                 tracks: raw.tracks,
+                shoulders: raw.shoulders,
             };
             laugh.validate(catalog)?;
             laugh.name = type_name(&laugh.id)?;
@@ -269,6 +286,10 @@ impl LaughType {
             self.check(field, value, (0.0..=0.4).contains(&value), "in [0, 0.4]")?;
         }
         self.check("variation.delay", v.delay, (0.0..=0.5).contains(&v.delay), "in [0, 0.5] seconds")?;
+        if let Some(s) = self.shoulders {
+            self.check("shoulders.peak", s.peak, (0.0..=1.0).contains(&s.peak), "in [0, 1]")?;
+            self.check("shoulders.pulse", s.pulse, (0.0..=1.0).contains(&s.pulse), "in [0, 1]")?;
+        }
         self.validate_tracks(catalog)
     }
 

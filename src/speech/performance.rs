@@ -111,6 +111,7 @@ pub fn perform(utterance: &Utterance, face: &Face, staging: Staging) -> Performa
         identity: staging.identity.to_string(),
         size: [staging.size.0, staging.size.1],
         tracks: tracks_through(&values, fps),
+        shoulders: Vec::new(),
     };
     let lead = (LEAD_S * f64::from(utterance.sample_rate)).round() as usize;
     let total = (duration_s * f64::from(utterance.sample_rate)).round() as usize;

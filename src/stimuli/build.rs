@@ -337,11 +337,11 @@ const SHARED_FRAME_BYTES: usize = 512 << 20;
 
 /// The distinct frames an entry shows.
 fn entry_frames(spec: &SetSpec, entry: &Entry) -> Result<BTreeSet<FrameKey>, BuildError> {
-    let key = |expression: &crate::facs::Expression| FrameKey::new(&entry.identity, spec.size, expression);
+    let key = |frame: &dyn std::fmt::Display| FrameKey::new(&entry.identity, spec.size, &frame.to_string());
     match &entry.content {
         Content::Image(expression) => Ok(BTreeSet::from([key(expression)])),
         Content::Video { timeline, .. } => (0..timeline.frame_count())
-            .map(|f| timeline.frame_expression(f, Catalog::built_in()).map(|e| key(&e)))
+            .map(|f| timeline.frame_key(f, Catalog::built_in()).map(|k| key(&k)))
             .collect::<Result<_, _>>()
             .map_err(|e| BuildError::Render { entry: entry.origin.clone(), message: e.to_string() }),
     }
@@ -368,7 +368,7 @@ fn render_entry(
     let fail = |message: String| BuildError::Render { entry: entry.origin.clone(), message };
     let identity = IdentityTable::active().get(&entry.identity).map_err(|e| fail(e.to_string()))?;
     let style = entry.style.unwrap_or_default();
-    let settings = FrameSettings { width: spec.size.0, height: spec.size.1, threads: Some(1), look: spec.look, style };
+    let settings = FrameSettings { width: spec.size.0, height: spec.size.1, threads: Some(1), look: spec.look, style, shoulders: 0.0 };
     match &entry.content {
         Content::Image(expression) if spec.look.backdrop == Backdrop::Transparent => {
             // RGBA stills are not shared with videos (which have no alpha).
@@ -480,7 +480,7 @@ pub fn render_video(
     let mut cached_bytes = 0usize;
     let chunk = if parallel { 4 * rayon::current_num_threads() } else { 1 };
     let frame_settings = FrameSettings { threads: if parallel { Some(1) } else { settings.threads }, ..settings };
-    let keys: Vec<String> = expressions.iter().map(|e| e.to_string()).collect();
+    let keys: Vec<String> = (0..expressions.len()).map(|f| timeline.frame_key(f, catalog)).collect::<Result<_, _>>()?;
     for start in (0..expressions.len()).step_by(chunk) {
         let end = (start + chunk).min(expressions.len());
         let mut fresh: Vec<usize> = Vec::new();
@@ -494,7 +494,8 @@ pub fn render_video(
             if let Some(image) = shared.and_then(|s| s.get(&frame_key(f))) {
                 return Ok((f, image));
             }
-            let image = Arc::new(engine::render_still(&expressions[f], identity, frame_settings)?);
+            let shoulders = timeline.shoulders_at(timeline.time_of(f)) as f32;
+            let image = Arc::new(engine::render_still(&expressions[f], identity, FrameSettings { shoulders, ..frame_settings })?);
             if let Some(shared) = shared {
                 shared.offer(&frame_key(f), &image);
             }

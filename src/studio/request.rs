@@ -148,7 +148,8 @@ fn excerpt(text: &str, max: usize) -> String {
 /// A checked request, ready to render.
 #[derive(Debug, Clone)]
 pub enum Job {
-    Still { expression: Expression, identity: &'static Identity, size: (u32, u32), look: Look },
+    /// One picture; `shoulders` is the body's lift of a timeline's frame (0 for an expression).
+    Still { expression: Expression, identity: &'static Identity, size: (u32, u32), look: Look, shoulders: f32 },
     Video(Box<Timeline>, Look),
 }
 
@@ -169,7 +170,8 @@ fn frame_of(timeline: &Timeline, frame: usize, look: Look) -> Result<Job, Reques
     }
     let expression = timeline.frame_expression(frame, Catalog::built_in()).map_err(|e| RequestError::field("timeline", e.to_string()))?;
     let person = identity(Some(&timeline.identity))?;
-    Ok(Job::Still { expression, identity: person, size: (timeline.size[0], timeline.size[1]), look })
+    let shoulders = timeline.shoulders_at(timeline.time_of(frame)) as f32;
+    Ok(Job::Still { expression, identity: person, size: (timeline.size[0], timeline.size[1]), look, shoulders })
 }
 
 /// The bytes of a render and what they are.
@@ -252,7 +254,12 @@ fn timeline(value: serde_json::Value) -> Result<Timeline, RequestError> {
 /// refusal naming the track and field.
 pub fn check_timeline(body: &[u8]) -> Result<String, RequestError> {
     let value: serde_json::Value = serde_json::from_slice(body).map_err(|e| RequestError::Json(e.to_string()))?;
-    Ok(timeline(value)?.to_json())
+    let timeline = timeline(value)?;
+    if !timeline.shoulders.is_empty() {
+        let message = "the editor shapes AU tracks only and would drop the shoulders' lift; render this timeline with `facslab render --timeline` or the render API".to_string();
+        return Err(RequestError::Timeline { track: None, key: "shoulders", message });
+    }
+    Ok(timeline.to_json())
 }
 
 impl RenderRequest {
@@ -280,7 +287,7 @@ impl RenderRequest {
                 let expression = parse_expression(&text)?;
                 let identity = identity(self.identity.as_deref())?;
                 let size = self.size.as_deref().map(parse_size).transpose()?.unwrap_or(engine::DEFAULT_SIZE);
-                Ok(Job::Still { expression, identity, size, look })
+                Ok(Job::Still { expression, identity, size, look, shoulders: 0.0 })
             }
         }
     }
@@ -291,8 +298,8 @@ impl Job {
     /// MP4 `facslab render --timeline FILE` writes.
     pub fn render(self) -> Result<Rendered, RequestError> {
         match self {
-            Job::Still { expression, identity, size, look } => {
-                let settings = FrameSettings { width: size.0, height: size.1, threads: None, look, ..Default::default() };
+            Job::Still { expression, identity, size, look, shoulders } => {
+                let settings = FrameSettings { width: size.0, height: size.1, threads: None, look, shoulders, ..Default::default() };
                 let frame = engine::render_frame(&expression, identity, settings).map_err(|e| RequestError::Render(e.to_string()))?;
                 Ok(Rendered { bytes: frame.encode_png(), video: false })
             }
@@ -388,5 +395,9 @@ mod tests {
         let bad = check_timeline(br#"{"duration_s": 1, "tracks": [{"au": 12, "start_intensity": 0, "end_intensity": 1.5, "start_s": 0, "end_s": 1}]}"#).unwrap_err();
         assert_eq!((bad.to_json()["track"].clone(), bad.to_json()["key"].clone()), (1.into(), "end_intensity".into()), "{bad}");
         assert!(matches!(check_timeline(b"{not json"), Err(RequestError::Json(_))));
+        let shrug = check_timeline(br#"{"duration_s": 1, "tracks": [], "shoulders": [[0, 0], [0.5, 0.4]]}"#).unwrap_err();
+        assert_eq!(shrug.to_json()["key"], "shoulders", "the editor would drop the shoulders, so it does not import them: {shrug}");
+        let bad = check_timeline(br#"{"duration_s": 1, "tracks": [], "shoulders": [[0.5, 0.4], [0.2, 0.1]]}"#).unwrap_err();
+        assert!(bad.to_string().contains("shoulders key 2: time 0.2 s must be in [0, 1] and not before the key before it"), "{bad}");
     }
 }
