@@ -63,6 +63,8 @@ const SHRUG_BY_RING: [f32; 9] = [0.2, 0.45, 0.85, 1.0, 1.0, 0.8, 0.5, 0.2, 0.0];
 pub struct Body {
     /// How far this person's neck sits from the base mesh's (the rings moved with it).
     pub shift: Vec3,
+    /// How far the shoulders are raised (0 at rest, 1 a full shrug).
+    pub lift: f32,
     pub positions: Vec<Vec3>,
     pub normals: Vec<Vec3>,
     pub triangles: Vec<[u32; 3]>,
@@ -114,8 +116,8 @@ fn ring_point(ring: &Ring, theta: f32) -> Vec3 {
 
 impl Body {
     /// The body under `posed`: the posed neck-cut loop on top of the fixed rings, the shoulders
-    /// raised by `shoulders` (0 at rest to 1, a full shrug).
-    pub fn new(model: &FaceModel, posed: &Posed, identity: &Identity, shoulders: f32) -> Body {
+    /// raised by `lift` (0 at rest to 1, a full shrug).
+    pub fn new(model: &FaceModel, posed: &Posed, identity: &Identity, lift: f32) -> Body {
         let t = template(model);
         let mut positions: Vec<Vec3> = t.loop_vertices.iter().map(|&v| posed.positions[v as usize]).collect();
         // Narrower shoulders for women; the rings under the neck take the neck's own size
@@ -131,7 +133,7 @@ impl Body {
             let widen = ((i / n) as f32 / 4.0).min(1.0);
             let across = neck.x + (shoulders - neck.x) * widen;
             let deep = neck.y + (1.0 - neck.y) * widen;
-            Vec3::new(p.x * across, p.y + shrug(i / n, p.x, shoulders), NECK_AXIS_Z + (p.z - NECK_AXIS_Z) * deep) + shift
+            Vec3::new(p.x * across, p.y + shrug(i / n, p.x, lift), NECK_AXIS_Z + (p.z - NECK_AXIS_Z) * deep) + shift
         }));
         let normals = vertex_normals(&positions, &t.triangles);
         // The top ring takes the head's own normals, so the shading is continuous across the cut.
@@ -139,18 +141,26 @@ impl Body {
         for (slot, &v) in normals.iter_mut().zip(&t.loop_vertices) {
             *slot = posed.normals[v as usize];
         }
-        Body { shift, positions, normals, triangles: t.triangles.clone() }
+        Body { shift, lift, positions, normals, triangles: t.triangles.clone() }
     }
 }
 
 /// How far the shrug raises a point of ring `ring` at `x` across: the shoulder tops (the sides)
 /// fully, the front and back of the chest half as far.
-fn shrug(ring: usize, x: f32, shoulders: f32) -> f32 {
-    if shoulders == 0.0 {
+fn shrug(ring: usize, x: f32, lift: f32) -> f32 {
+    if lift == 0.0 {
         return 0.0;
     }
     let side = (x.abs() / RINGS[ring].half_width).min(1.0);
-    shoulders * SHRUG_DM * SHRUG_BY_RING[ring] * (0.5 + 0.5 * side * side)
+    lift * SHRUG_DM * SHRUG_BY_RING[ring] * (0.5 + 0.5 * side * side)
+}
+
+impl Body {
+    /// How far the shrug has raised the top's neckline at `x` across (the fabric rises with the
+    /// shoulders: the neckline lies about where the third ring runs).
+    pub fn neckline_rise(&self, x: f32) -> f32 {
+        shrug(2, x, self.lift)
+    }
 }
 
 /// The neck cut's width (x) and depth (y) among `positions`.

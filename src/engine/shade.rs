@@ -673,7 +673,7 @@ pub(crate) fn below_neckline(body: Option<&Body>, p: Vec3) -> f32 {
     let (x, z) = (p.x, p.z - 0.25);
     let r = (x * x + z * z).sqrt();
     let around = if r > 0.0 { z / r } else { 1.0 };
-    let shift = body.map_or(0.0, |b| b.shift.y);
+    let shift = body.map_or(0.0, |b| b.shift.y + b.neckline_rise(p.x));
     let neckline = 5.64 + shift + 0.09 * (1.0 - around);
     neckline - p.y
 }

@@ -240,7 +240,7 @@ mod tests {
                 CurveTrack { au: AuCode(26), side: Laterality::Both, values: wobble },
             ],
             fit: None,
-            shoulders: (0..31).map(|f| if f < 5 { 0.0 } else { 0.3 + 0.2 * (f as f64 * 1.9).sin() }).collect(),
+            shoulders: (0..31).map(|f| if f < 5 { 0.0 } else { ((0.3 + 0.2 * (f as f64 * 1.9).sin()) * 1e4).round() / 1e4 }).collect(),
         }
     }
 

@@ -227,6 +227,7 @@ pub fn timeline_place(error: &TimelineError) -> (Option<usize>, &'static str) {
         TimelineError::Times { track, start, .. } if !(start.is_finite() && start >= 0.0) => (Some(track), "start_s"),
         TimelineError::Times { track, .. } => (Some(track), "end_s"),
         TimelineError::Overlap { second, .. } => (Some(second), "start_s"),
+        TimelineError::Shoulders { .. } => (None, "shoulders"),
     }
 }
 
