@@ -358,6 +358,7 @@ pub(crate) struct StartRequest {
     /// The design's arm names, in declaration order (empty: no arms).
     pub(super) arms: Vec<String>,
     pub(super) trials_per_participant: usize,
+    pub(super) labels_per_participant: usize,
     pub(super) ratings_per_stimulus: usize,
     pub(super) practice_trials: usize,
     pub(super) attention_checks: usize,
@@ -374,6 +375,7 @@ impl StartRequest {
             group: source.group.clone(),
             arms: design.arms.iter().map(|a| a.name.clone()).collect(),
             trials_per_participant: design.trials_per_participant,
+            labels_per_participant: design.labels_per_participant,
             ratings_per_stimulus: design.ratings_per_stimulus,
             practice_trials: design.practice_trials,
             attention_checks: design.attention.checks.len(),

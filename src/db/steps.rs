@@ -211,10 +211,9 @@ macro_rules! steps {
             // Practice stimuli come from the whole study (outside the participant's share when it can).
             let pool: Vec<String> = study_loads.iter().map(|(id, _)| id.clone()).collect();
             let arm_loads: Vec<(String, usize)> = study_loads.iter().filter(|(id, _)| members.as_ref().is_none_or(|m| m.contains(id))).cloned().collect();
-            let Ok(share) = assign::choose_stimuli(&arm_loads, start.trials_per_participant, start.ratings_per_stimulus, seed) else {
+            let Some((share, plan)) = plan_share(conn, start, &arm_loads, &pool, seed).await? else {
                 return Ok(Started::Full);
             };
-            let plan = assign::plan_trials(&share, &pool, start.practice_trials, start.attention_checks, seed);
             let token = secret_token();
             let public_id = format!("p{}", &secret_token()[..12]);
             let expires = now + i64::from(start.reservation_minutes) * 60_000;
@@ -258,6 +257,22 @@ macro_rules! steps {
         }
 
         /// The stimuli of `arm` (`None`: no arm, every stimulus of the study).
+        /// The participant's share and plan: a balanced share of stimuli, or whole labels
+        /// (`labels_per_participant`); `None` when the study has every rating it asked for.
+        async fn plan_share(conn: &mut Conn, start: &StartRequest, loads: &[(String, usize)], pool: &[String], seed: u64) -> Result<Option<(Vec<String>, Vec<PlannedTrial>)>, DbError> {
+            if start.labels_per_participant == 0 {
+                let Ok(share) = assign::choose_stimuli(loads, start.trials_per_participant, start.ratings_per_stimulus, seed) else { return Ok(None) };
+                let plan = assign::plan_trials(&share, pool, start.practice_trials, start.attention_checks, seed);
+                return Ok(Some((share, plan)));
+            }
+            let rows = sqlx::query("SELECT stimulus_id, emotion FROM stimuli WHERE study_id = $1").bind(start.study_id).fetch_all(&mut *conn).await?;
+            let labels: std::collections::HashMap<String, String> = rows.into_iter().map(|r| (r.get(0), r.get(1))).collect();
+            let label_of = |id: &str| labels.get(id).cloned();
+            let Ok(groups) = assign::choose_labels(loads, &label_of, start.labels_per_participant, start.ratings_per_stimulus, seed) else { return Ok(None) };
+            let plan = assign::plan_label_trials(&groups, pool, start.practice_trials, start.attention_checks, seed);
+            Ok(Some((groups.concat(), plan)))
+        }
+
         async fn arm_members(conn: &mut Conn, study_id: i64, arm: &str) -> Result<Option<std::collections::HashSet<String>>, DbError> {
             if arm.is_empty() {
                 return Ok(None);

@@ -65,9 +65,61 @@ pub fn choose_stimuli(loads: &[(String, usize)], share: usize, target: usize, se
     Ok(order[..n].iter().map(|(_, _, id)| id.to_string()).collect())
 }
 
+/// The stimuli of the `labels` least-loaded labels, a label's stimuli together (in id order),
+/// for designs that show whole labels (`labels_per_participant`; seed 004's study 1: six or
+/// seven types, each with its real and its generated video). A label's load is its most-loaded
+/// stimulus's; with a `target`, a participant is only taken while some label is below it.
+pub fn choose_labels(loads: &[(String, usize)], label_of: &dyn Fn(&str) -> Option<String>, labels: usize, target: usize, seed: u64) -> Result<Vec<Vec<String>>, StudyFull> {
+    let mut groups: std::collections::BTreeMap<String, (usize, Vec<String>)> = std::collections::BTreeMap::new();
+    for (id, load) in loads {
+        let group = groups.entry(label_of(id).unwrap_or_default()).or_default();
+        group.0 = group.0.max(*load);
+        group.1.push(id.clone());
+    }
+    if target > 0 && groups.values().all(|(load, _)| *load >= target) {
+        return Err(StudyFull { target });
+    }
+    let mut rng = SplitMix64(seed ^ 0xA551_6E01);
+    let mut order: Vec<(usize, u64, Vec<String>)> = groups.into_values().map(|(load, mut ids)| {
+        ids.sort();
+        (load, rng.next_u64(), ids)
+    }).collect();
+    order.sort_unstable();
+    Ok(order.into_iter().take(labels).map(|(_, _, ids)| ids).collect())
+}
+
 /// The full plan: `practice` stimuli drawn from `pool` (not from the main share when the pool
 /// allows), then the main stimuli shuffled, with `checks` attention checks spread over them.
 pub fn plan_trials(main: &[String], pool: &[String], practice: usize, checks: usize, seed: u64) -> Vec<PlannedTrial> {
+    plan_with(main, pool, practice, checks, seed, &|order, rng| {
+        rng.shuffle(order);
+        (1..=order.len()).collect()
+    })
+}
+
+/// The plan of whole labels ([`choose_labels`]): the labels in a seeded order, each label's
+/// stimuli one after another (in a seeded order), attention checks only between labels.
+pub fn plan_label_trials(groups: &[Vec<String>], pool: &[String], practice: usize, checks: usize, seed: u64) -> Vec<PlannedTrial> {
+    let main: Vec<String> = groups.concat();
+    plan_with(&main, pool, practice, checks, seed, &|order, rng| {
+        let mut shuffled: Vec<Vec<&String>> = groups.iter().map(|g| g.iter().collect()).collect();
+        rng.shuffle(&mut shuffled);
+        shuffled.iter_mut().for_each(|g| rng.shuffle(g));
+        let (mut ends, mut at) = (Vec::new(), 0);
+        for group in &shuffled {
+            at += group.len();
+            ends.push(at);
+        }
+        *order = shuffled.concat();
+        ends
+    })
+}
+
+/// Where the main trials go: `arrange` orders them and returns the positions a check may follow
+/// (the number of main trials before it, rising).
+type Arrange<'a> = dyn Fn(&mut Vec<&'a String>, &mut SplitMix64) -> Vec<usize> + 'a;
+
+fn plan_with<'a>(main: &'a [String], pool: &[String], practice: usize, checks: usize, seed: u64, arrange: &Arrange<'a>) -> Vec<PlannedTrial> {
     let mut rng = SplitMix64(seed);
     let mut trials = Vec::with_capacity(practice + main.len() + checks);
 
@@ -81,13 +133,18 @@ pub fn plan_trials(main: &[String], pool: &[String], practice: usize, checks: us
     }
 
     let mut order: Vec<&String> = main.iter().collect();
-    rng.shuffle(&mut order);
+    let allowed = arrange(&mut order, &mut rng);
     let segments = checks.max(1);
     let mut at = Vec::with_capacity(checks);
     for k in 0..checks {
-        // Check k goes after a seeded trial of segment k (never before the first main trial).
+        // Check k goes after a seeded trial of segment k (never before the first main trial),
+        // at a position `arrange` allows (the first allowed one after the segment if none is in it).
         let (lo, hi) = (k * order.len() / segments, ((k + 1) * order.len() / segments).max(k * order.len() / segments + 1));
-        at.push(lo + 1 + rng.below(hi - lo));
+        let inside: Vec<usize> = allowed.iter().copied().filter(|&p| p > lo && p <= hi).collect();
+        at.push(match inside.len() {
+            0 => allowed.iter().copied().find(|&p| p > lo).or(allowed.last().copied()).unwrap_or(1),
+            n => inside[rng.below(n)],
+        });
     }
     for (i, stimulus) in order.iter().enumerate() {
         trials.push(PlannedTrial { kind: TrialKind::Trial, stimulus_id: (*stimulus).clone(), check_index: None });
@@ -145,6 +202,39 @@ mod tests {
         assert!(checks[0] > 2, "a check before the first main trial: {checks:?}");
         assert_eq!(plan_trials(&main, &pool, 2, 3, 42), plan, "same seed, same plan");
         assert_ne!(plan_trials(&main, &pool, 2, 3, 43), plan);
+    }
+
+    /// 13 labels of two stimuli each (a real and a generated video per laugh type).
+    fn pairs() -> (Vec<(String, usize)>, impl Fn(&str) -> Option<String>) {
+        let loads = ids(26).into_iter().map(|s| (s, 0)).collect();
+        (loads, |id: &str| id[1..].parse::<usize>().ok().map(|n| format!("type{}", n / 2)))
+    }
+
+    #[test]
+    fn whole_labels_are_chosen_least_rated_first_and_shown_one_after_another() {
+        let (mut loads, label_of) = pairs();
+        for seed in 0..20 {
+            let groups = choose_labels(&loads, &label_of, 7, 0, seed).unwrap();
+            assert_eq!(groups.len(), 7);
+            assert!(groups.iter().all(|g| g.len() == 2 && label_of(&g[0]) == label_of(&g[1])), "whole labels: {groups:?}");
+            for id in groups.concat() {
+                loads.iter_mut().find(|(s, _)| *s == id).unwrap().1 += 1;
+            }
+            let counts: Vec<usize> = loads.iter().map(|l| l.1).collect();
+            assert!(counts.iter().max().unwrap() - counts.iter().min().unwrap() <= 1, "after participant {seed}: {counts:?}");
+            let plan = plan_label_trials(&groups, &ids(26), 0, 2, seed);
+            let shown: Vec<&String> = plan.iter().filter(|t| t.kind == TrialKind::Trial).map(|t| &t.stimulus_id).collect();
+            assert_eq!(shown.len(), 14);
+            for pair in shown.chunks(2) {
+                assert_eq!(label_of(pair[0]), label_of(pair[1]), "a label's stimuli follow each other: {shown:?}");
+            }
+            let mains_before = |i: usize| plan[..i].iter().filter(|t| t.kind == TrialKind::Trial).count();
+            for (i, _) in plan.iter().enumerate().filter(|(_, t)| t.kind == TrialKind::Attention) {
+                assert_eq!(mains_before(i) % 2, 0, "checks only between labels");
+            }
+        }
+        let full: Vec<(String, usize)> = ids(4).into_iter().map(|s| (s, 3)).collect();
+        assert_eq!(choose_labels(&full, &label_of, 1, 3, 1), Err(StudyFull { target: 3 }));
     }
 
     #[test]

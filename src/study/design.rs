@@ -10,6 +10,7 @@
 //! labels = "emfacs"                # the label set offered and described (study::labels; default emfacs)
 //! intensities = [100]              # peak intensities admitted, whole percent (default: all)
 //! trials_per_participant = 0       # 0 = every stimulus; n = a balanced share of n stimuli
+//! labels_per_participant = 0       # or n = every stimulus of n labels, a label's one after another
 //! ratings_per_stimulus = 0         # with a share: completed ratings wanted per stimulus
 //! practice_trials = 1              # shown first, not exported with the trials
 //! demographics = true              # age, gender, ethnicity, education (HapFACS Table 6)
@@ -225,6 +226,8 @@ struct RawDesign {
     #[serde(default)]
     trials_per_participant: usize,
     #[serde(default)]
+    labels_per_participant: usize,
+    #[serde(default)]
     ratings_per_stimulus: usize,
     #[serde(default)]
     practice_trials: usize,
@@ -275,6 +278,10 @@ pub struct StudyDesign {
     pub intensities: Vec<u32>,
     /// 0 = every stimulus.
     pub trials_per_participant: usize,
+    /// 0 = no grouping; n = every stimulus of n labels (the least-rated first), each label's
+    /// stimuli one after another (seed 004's study 1: six or seven types, the real and the
+    /// generated video of each).
+    pub labels_per_participant: usize,
     /// 0 = no limit (every participant sees every stimulus).
     pub ratings_per_stimulus: usize,
     pub practice_trials: usize,
@@ -353,7 +360,7 @@ impl StudyDesign {
 
     /// True when participants get a balanced share of the stimuli rather than all of them.
     pub fn shares_stimuli(&self) -> bool {
-        self.trials_per_participant > 0
+        self.trials_per_participant > 0 || self.labels_per_participant > 0
     }
 }
 
@@ -372,6 +379,7 @@ impl RawDesign {
     fn check_bounds(&self) -> Result<(), DesignError> {
         let bounds = [
             ("trials_per_participant", self.trials_per_participant, 5_000),
+            ("labels_per_participant", self.labels_per_participant, 1_000),
             ("ratings_per_stimulus", self.ratings_per_stimulus, 100_000),
             ("practice_trials", self.practice_trials, 50),
             ("attention.checks", self.attention.checks.len(), 50),
@@ -399,8 +407,11 @@ impl RawDesign {
         if self.group.contains([',', '"', '\n']) {
             return Err(fail("group", "must not contain commas, quotes or line breaks"));
         }
-        if self.ratings_per_stimulus > 0 && self.trials_per_participant == 0 {
-            return Err(fail("ratings_per_stimulus", "needs trials_per_participant > 0 (a share of the stimuli per participant)"));
+        if self.trials_per_participant > 0 && self.labels_per_participant > 0 {
+            return Err(fail("labels_per_participant", "give trials_per_participant (a share of stimuli) or labels_per_participant (whole labels), not both"));
+        }
+        if self.ratings_per_stimulus > 0 && self.trials_per_participant == 0 && self.labels_per_participant == 0 {
+            return Err(fail("ratings_per_stimulus", "needs trials_per_participant > 0 or labels_per_participant > 0 (a share of the stimuli per participant)"));
         }
         if self.reservation_minutes == 0 {
             return Err(fail("reservation_minutes", "must be at least 1"));
@@ -435,6 +446,7 @@ impl RawDesign {
             labels,
             intensities: self.intensities,
             trials_per_participant: self.trials_per_participant,
+            labels_per_participant: self.labels_per_participant,
             ratings_per_stimulus: self.ratings_per_stimulus,
             practice_trials: self.practice_trials,
             demographics: self.demographics,

@@ -34,7 +34,7 @@ mod tests {
         assert_eq!(description.labels.id(), "laughs");
         assert_eq!(description.items.iter().map(|i| (i.measure, i.min, i.max)).collect::<Vec<_>>(), [(Scale::DescriptionMatch, 0, 5)]);
         assert_eq!(description.items[0].prompt, "Does the expression correspond to the description?");
-        assert_eq!(description.trials_per_participant, 13, "half of the 26 videos");
+        assert_eq!((description.trials_per_participant, description.labels_per_participant), (0, 7), "seven whole types: both videos of each");
         let motion = design("laugh-motion.toml");
         assert_eq!(motion.labels.id(), "laughs");
         assert_eq!(motion.items.iter().map(|i| i.measure).collect::<Vec<_>>(), [Scale::Q1, Scale::Q2]);

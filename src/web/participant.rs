@@ -6,7 +6,7 @@
 //! unanswered trial. Saves come as a plain form post (no script needed) or as JSON from the
 //! page script, which waits for the acknowledgement before moving on.
 
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap};
 
 use axum::extract::{Form, Path, Query, State};
 use axum::http::{HeaderValue, StatusCode, header};
@@ -82,6 +82,13 @@ fn trials_shown(study: &LoadedStudy) -> usize {
         true => with_trials().count(),
         false => study.design.arms.iter().map(|a| with_trials().filter(|s| s.arms.contains(&a.name)).count()).max().unwrap_or(0),
     };
+    if study.design.labels_per_participant > 0 {
+        let mut per_label: BTreeMap<&str, usize> = BTreeMap::new();
+        with_trials().for_each(|s| *per_label.entry(s.emotion.as_str()).or_default() += 1);
+        let mut sizes: Vec<usize> = per_label.into_values().collect();
+        sizes.sort_unstable_by(|a, b| b.cmp(a));
+        return sizes.iter().take(study.design.labels_per_participant).sum::<usize>().min(all);
+    }
     if study.design.shares_stimuli() { study.design.trials_per_participant.min(all) } else { all }
 }
 

@@ -89,14 +89,15 @@ fn shown_type(page: &str) -> usize {
 }
 
 /// Answers every trial on screen by clicking, checking that each shows a description; returns
-/// the trials answered. Screenshots the first trial into `shots` (desktop and phone size).
-async fn click_through(browser: &Browser, scales: &[&str], shots: &std::path::Path, name: &str) -> usize {
-    let mut done = 0;
+/// the descriptions shown, in order. Screenshots the first trial into `shots` (desktop and phone
+/// size).
+async fn click_through(browser: &Browser, scales: &[&str], shots: &std::path::Path, name: &str) -> Vec<String> {
+    let mut shown = Vec::new();
     while path(browser).await.ends_with("/trial") {
         let view = trial_view(browser).await;
         let description = browser.text(".description").await;
         assert!(description.len() > 40, "every laugh trial shows its type's description: {description:?}");
-        if done == 0 {
+        if shown.is_empty() {
             browser.screenshot(shots.join(format!("{name}-trial-desktop.png"))).await;
             browser.set_window_size(390, 844).await;
             browser.screenshot(shots.join(format!("{name}-trial-phone.png"))).await;
@@ -108,9 +109,9 @@ async fn click_through(browser: &Browser, scales: &[&str], shots: &std::path::Pa
             tap(browser, &format!("input[name={scale}][value=\"{}\"]", (view.position as usize + i) % 6)).await;
         }
         submit(browser, &view).await;
-        done += 1;
+        shown.push(description);
     }
-    done
+    shown
 }
 
 /// Participants over HTTP: each answers its trials with [`rating`] of the stimulus shown.
@@ -165,8 +166,13 @@ async fn e2e_laugh_templates_run_in_the_browser_and_report_anova_and_scheffe() {
         lab.study(&slug, &design);
         let server = lab.serve();
         start_session(&browser, &server, &slug, true).await;
-        let clicked = click_through(&browser, scales, &shots, &slug).await;
-        assert_eq!(clicked, if slug == "laugh-motion" { 26 } else { 13 }, "{slug}: trials per participant");
+        let shown = click_through(&browser, scales, &shots, &slug).await;
+        assert_eq!(shown.len(), if slug == "laugh-motion" { 26 } else { 14 }, "{slug}: trials per participant");
+        if slug == "laugh-description" {
+            let types: std::collections::BTreeSet<&String> = shown.iter().collect();
+            assert_eq!(types.len(), 7, "seven whole types");
+            assert!(shown.chunks(2).all(|pair| pair[0] == pair[1]), "a type's two videos follow each other: {shown:?}");
+        }
         wait_for_page(&browser, "/done").await;
         http_participants(&server, &slug, scales, 7).await;
         let (means, anova, scheffe) = report(&lab, &slug, "report");
