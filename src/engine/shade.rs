@@ -556,8 +556,12 @@ impl<'a> FaceShader<'a> {
         let model = &hair.model;
         let strand = (f.triangle / model.triangles_per_strand) as usize;
         let tone = model.strand_tone.get(strand).copied().unwrap_or(1.0);
-        let grey = model.fibre_grey(strand, f.uv.x);
-        // Greying: white strands among pigmented ones, which themselves lose some colour.
+        // Greying: white fibres among pigmented ones, which themselves lose some colour. A fibre
+        // is far thinner than a pixel, so a white one is seen mixed with its neighbours: half its
+        // own whiteness, half its strand's share of white (pure white fibres on dark hair read as
+        // scribbles).
+        let share = model.strand_grey.get(strand).copied().unwrap_or(0.0);
+        let grey = 0.5 * model.fibre_grey(strand, f.uv.x) + 0.5 * share;
         let faded = self.identity.hair.lerp(Vec3::splat(self.identity.hair.dot(Vec3::splat(1.0 / 3.0))), 0.4 * self.identity.hair_grey);
         let pigment = faded.lerp(Vec3::new(0.4, 0.4, 0.38), grey);
         let fibres = 0.72 + 0.28 * value_noise(Vec3::new(f.uv.x * FIBRES_PER_CARD, f.uv.y * 3.0, strand as f32 * 1.618));
