@@ -143,6 +143,12 @@ impl Body {
         }
         Body { shift, lift, positions, normals, triangles: t.triangles.clone() }
     }
+
+    /// How far the shrug has raised the top's neckline at `x` across (the fabric rises with the
+    /// shoulders: the neckline lies about where the third ring runs).
+    pub fn neckline_rise(&self, x: f32) -> f32 {
+        shrug(2, x, self.lift)
+    }
 }
 
 /// How far the shrug raises a point of ring `ring` at `x` across: the shoulder tops (the sides)
@@ -153,14 +159,6 @@ fn shrug(ring: usize, x: f32, lift: f32) -> f32 {
     }
     let side = (x.abs() / RINGS[ring].half_width).min(1.0);
     lift * SHRUG_DM * SHRUG_BY_RING[ring] * (0.5 + 0.5 * side * side)
-}
-
-impl Body {
-    /// How far the shrug has raised the top's neckline at `x` across (the fabric rises with the
-    /// shoulders: the neckline lies about where the third ring runs).
-    pub fn neckline_rise(&self, x: f32) -> f32 {
-        shrug(2, x, self.lift)
-    }
 }
 
 /// The neck cut's width (x) and depth (y) among `positions`.

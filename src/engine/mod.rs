@@ -73,7 +73,7 @@ pub struct FrameSettings {
     /// Realistic or cartoon drawing of the same geometry.
     pub style: Style,
     /// The body's pose in this frame: how far the shoulders are raised, 0 (rest) to 1 (a full
-    /// shrug); a timeline sets it per frame ([`timeline::Timeline::shoulders_at`]).
+    /// shrug); a timeline sets it per frame ([`timeline::Timeline::frame_shoulders`]).
     pub shoulders: f32,
 }
 

@@ -282,9 +282,11 @@ impl Timeline {
     /// the AU ramps so that held and repeated poses are the same frame.
     pub fn shoulders_at(&self, t: f64) -> f64 {
         let keys = &self.shoulders;
-        let Some(after) = keys.iter().position(|k| k[0] > t) else {
+        // The keys are in time order (validated): the first one after `t` by binary search.
+        let after = keys.partition_point(|k| k[0] <= t);
+        if after == keys.len() {
             return keys.last().filter(|k| k[0] == t).map_or(0.0, |k| quantize(k[1]));
-        };
+        }
         if after == 0 {
             return 0.0;
         }
@@ -292,12 +294,22 @@ impl Timeline {
         quantize(a + (b - a) * (t - t0) / (t1 - t0))
     }
 
+    /// How far the shoulders are raised in frame `frame`, as the renderer takes it
+    /// ([`crate::engine::FrameSettings::shoulders`]).
+    pub fn frame_shoulders(&self, frame: usize) -> f32 {
+        self.shoulders_at(self.time_of(frame)) as f32
+    }
+
     /// What identifies the picture of frame `frame` for reuse: its expression, and the shoulder
     /// lift when the shoulders are raised.
     pub fn frame_key(&self, frame: usize, catalog: &Catalog) -> Result<String, crate::facs::NotationError> {
-        let expression = self.frame_expression(frame, catalog)?.to_string();
-        let lift = self.shoulders_at(self.time_of(frame));
-        Ok(if lift == 0.0 { expression } else { format!("{expression} shoulders {lift}") })
+        Ok(self.frame_key_of(frame, &self.frame_expression(frame, catalog)?))
+    }
+
+    /// [`Timeline::frame_key`] of frame `frame` whose expression is already known.
+    pub fn frame_key_of(&self, frame: usize, expression: &Expression) -> String {
+        let lift = self.frame_shoulders(frame);
+        if lift == 0.0 { expression.to_string() } else { format!("{expression} shoulders {lift}") }
     }
 
     /// Number of frames: `round(duration_s × fps)`.

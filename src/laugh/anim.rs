@@ -272,8 +272,9 @@ impl AnimFile {
         let frames = (end - start + 1.0).max(0.0) as usize;
         let (mut tracks, mut shoulders) = (Vec::new(), Vec::new());
         for curve in &self.curves {
+            let values = || (0..frames.min(super::curves::MAX_FRAMES + 1)).map(|f| sample(&curve.keys, start + f as f64)).collect();
             if curve.attribute == SHOULDERS {
-                shoulders = (0..frames.min(super::curves::MAX_FRAMES + 1)).map(|f| sample(&curve.keys, start + f as f64)).collect();
+                shoulders = values();
                 continue;
             }
             let (au, side) = parse_attribute(&curve.attribute)
@@ -281,8 +282,7 @@ impl AnimFile {
             if curve.keys.is_empty() {
                 return Err(AnimError::Curve { attribute: curve.attribute.clone(), message: "has no keys".into() });
             }
-            let values = (0..frames.min(super::curves::MAX_FRAMES + 1)).map(|f| sample(&curve.keys, start + f as f64)).collect();
-            tracks.push(CurveTrack { au, side, values });
+            tracks.push(CurveTrack { au, side, values: values() });
         }
         let source = format!("anim file ({} {})", self.header.maya_version, self.header.time_unit);
         let curves = Curves { format: FORMAT.into(), laugh_type: laugh_type.to_string(), fps, source, tracks, fit: None, shoulders };

@@ -45,8 +45,7 @@ pub fn render_strip(curves: &Curves, identity: &str, size: (u32, u32), style: St
         .into_iter()
         .map(|f| {
             let expression = timeline.frame_expression(f, Catalog::built_in()).map_err(|e| StripError::Frame(e.to_string()))?;
-            let shoulders = timeline.shoulders_at(timeline.time_of(f)) as f32;
-            Ok(engine::render_still(&expression, person, FrameSettings { shoulders, ..settings })?)
+            Ok(engine::render_still(&expression, person, FrameSettings { shoulders: timeline.frame_shoulders(f), ..settings })?)
         })
         .collect::<Result<Vec<_>, StripError>>()?;
     Ok(side_by_side(&frames))

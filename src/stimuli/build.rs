@@ -480,7 +480,7 @@ pub fn render_video(
     let mut cached_bytes = 0usize;
     let chunk = if parallel { 4 * rayon::current_num_threads() } else { 1 };
     let frame_settings = FrameSettings { threads: if parallel { Some(1) } else { settings.threads }, ..settings };
-    let keys: Vec<String> = (0..expressions.len()).map(|f| timeline.frame_key(f, catalog)).collect::<Result<_, _>>()?;
+    let keys: Vec<String> = expressions.iter().enumerate().map(|(f, e)| timeline.frame_key_of(f, e)).collect();
     for start in (0..expressions.len()).step_by(chunk) {
         let end = (start + chunk).min(expressions.len());
         let mut fresh: Vec<usize> = Vec::new();
@@ -494,8 +494,8 @@ pub fn render_video(
             if let Some(image) = shared.and_then(|s| s.get(&frame_key(f))) {
                 return Ok((f, image));
             }
-            let shoulders = timeline.shoulders_at(timeline.time_of(f)) as f32;
-            let image = Arc::new(engine::render_still(&expressions[f], identity, FrameSettings { shoulders, ..frame_settings })?);
+            let settings = FrameSettings { shoulders: timeline.frame_shoulders(f), ..frame_settings };
+            let image = Arc::new(engine::render_still(&expressions[f], identity, settings)?);
             if let Some(shared) = shared {
                 shared.offer(&frame_key(f), &image);
             }

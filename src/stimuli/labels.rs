@@ -23,8 +23,8 @@ pub const LABELS_DIR: &str = "labels";
 /// A label-set file is small text: 13 types with their descriptions are 3 KiB.
 pub const MAX_LABEL_FILE_BYTES: u64 = 256 * 1024;
 
-/// The most label-set files one set may carry.
-const MAX_FILES: usize = 16;
+/// The most label-set files one set (or a spec's `label_sets`) may carry.
+pub const MAX_FILES: usize = 16;
 
 /// A label-set file that cannot be used: the path and what is wrong.
 #[derive(Debug, thiserror::Error)]

@@ -349,12 +349,7 @@ impl SetSpec {
             let mut speaking = 0usize;
             for (i, item) in items.iter().enumerate() {
                 let item_name = format!("{gname}, item {} ({})", i + 1, item.label);
-                let who: Vec<String> = match mode {
-                    "rotate" => vec![rotation[i % rotation.len()].clone()],
-                    "each" => rotation.clone(),
-                    one => vec![one.to_string()],
-                };
-                for identity in who {
+                for identity in people(group, i, &rotation, &item_name)? {
                     if let Some(speak) = &group.speak {
                         let sentence = &sentences[speaking % sentences.len()];
                         speaking += 1;
@@ -553,9 +548,9 @@ fn laugh_entries(
     first_index: usize,
     catalog: &Catalog,
 ) -> Result<Vec<Entry>, SpecError> {
-    let other = group.aus.is_some() || group.expressions.is_some() || group.emotions.is_some() || group.cpt.is_some() || group.speak.is_some();
+    let other = group.aus.is_some() || group.expressions.is_some() || group.emotions.is_some() || group.cpt.is_some() || group.labelled.is_some() || group.speak.is_some();
     if other || !group.stills.is_empty() || group.timing.is_some() {
-        return Err(fail(gname, "a laughs group makes performed videos only: remove aus, expressions, emotions, cpt, speak, stills and timing"));
+        return Err(fail(gname, "a laughs group makes performed videos only: remove aus, expressions, emotions, cpt, labelled, speak, stills and timing"));
     }
     if group.video_peaks.is_empty() {
         return Err(fail(gname, "asks for no media (set video_peaks)"));
@@ -621,8 +616,8 @@ fn people(group: &RawGroup, i: usize, rotation: &[String], item_name: &str) -> R
 /// Registers the spec's `label_sets` files (paths relative to `base`); the user's own sets among
 /// them are kept to be written into the built set.
 fn read_label_sets(files: &[String], base: &std::path::Path) -> Result<Vec<crate::stimuli::labels::LabelFile>, SpecError> {
-    if files.len() > 16 {
-        return Err(fail("spec", format!("label_sets names {} files; at most 16", files.len())));
+    if files.len() > crate::stimuli::labels::MAX_FILES {
+        return Err(fail("spec", format!("label_sets names {} files; at most {}", files.len(), crate::stimuli::labels::MAX_FILES)));
     }
     let mut declared: Vec<crate::stimuli::labels::LabelFile> = Vec::new();
     for file in files {

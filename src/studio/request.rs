@@ -170,7 +170,7 @@ fn frame_of(timeline: &Timeline, frame: usize, look: Look) -> Result<Job, Reques
     }
     let expression = timeline.frame_expression(frame, Catalog::built_in()).map_err(|e| RequestError::field("timeline", e.to_string()))?;
     let person = identity(Some(&timeline.identity))?;
-    let shoulders = timeline.shoulders_at(timeline.time_of(frame)) as f32;
+    let shoulders = timeline.frame_shoulders(frame);
     Ok(Job::Still { expression, identity: person, size: (timeline.size[0], timeline.size[1]), look, shoulders })
 }
 

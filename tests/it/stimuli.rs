@@ -489,7 +489,7 @@ fn stimuli_laugh_groups_perform_each_type_in_each_style_and_name_both() {
     let timeline = |r: &ManifestRow| std::fs::read(dir.path().join("set/timelines").join(format!("{}.json", r.stimulus_id))).unwrap();
     assert_eq!(timeline(&rows[0]), timeline(&rows[1]), "both styles play the same take");
     assert_ne!(timeline(&rows[0]), timeline(&rows[2]), "each type its own take");
-    for (what, bad) in [("not a laugh type", "laughs = [\"giggle\"]"), ("styles", "laughs = \"all\"\nstyles = [\"sketch\"]"), ("performed videos only", "laughs = \"all\"\nstills = [1]")] {
+    for (what, bad) in [("not a laugh type", "laughs = [\"giggle\"]"), ("styles", "laughs = \"all\"\nstyles = [\"sketch\"]"), ("performed videos only", "laughs = \"all\"\nstills = [1]"), ("remove aus, expressions, emotions, cpt, labelled", "laughs = \"all\"\nlabelled = [{ label = \"happiness\", expression = \"6+12\" }]")] {
         std::fs::write(dir.path().join("bad.toml"), spec.replace("laughs = [\"laughter\", \"false_smile\"]\nstyles = [\"realistic\", \"cartoon\"]", bad)).unwrap();
         let output = facslab(dir.path(), &["stimuli", "check", "bad.toml"]);
         assert!(!output.status.success() && stderr(&output).contains(what), "{bad}: {}", stderr(&output));
