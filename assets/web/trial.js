@@ -1,5 +1,6 @@
-// One trial page: measures the response time from the stimulus's first painted frame, notes
-// whether a video played to its end, gives a video its coding controls (frame steps, replay,
+// One trial page (one stimulus, or a screen of several side by side, each with its own
+// answers): measures the response time from the first painted frame, notes whether the videos
+// played to their end, gives a video its coding controls (frame steps, replay,
 // speeds) and counts their use with the time in view, and saves the answer with its idempotency key. The page
 // moves on only after the server acknowledges the save; until then the answer waits in a queue
 // (localStorage) and is sent again with growing pauses, also after a reload.
@@ -11,9 +12,12 @@
   const queueKey = 'facslab-pending:' + api.split('/api/')[0];
   const status = document.getElementById('status');
   const next = document.getElementById('next');
-  const stimulus = document.getElementById('stimulus');
+  const stimuli = Array.from(form.querySelectorAll('.stimulus'));
+  const stimulus = stimuli[0];
   let shownAt = null;
-  let ended = false;
+  // The videos that played to their end since they last started; the save's video_ended says all did.
+  const endedVideos = new Set();
+  function allEnded() { return endedVideos.size === stimuli.length; }
   // How the media are viewed (study::viewing): replays, frame steps, speeds, time in view.
   const viewing = { replays: 0, frame_steps: 0, speeds: [] };
   let visibleMs = 0;
@@ -38,21 +42,28 @@
   }
   function failed() { form.elements.load_failed.value = '1'; painted(); }
   if (stimulus.tagName === 'VIDEO') {
-    stimulus.addEventListener('playing', painted);
-    stimulus.addEventListener('ended', function () { ended = true; });
-    stimulus.addEventListener('error', failed);
-    videoControls(stimulus);
-    stimulus.play().catch(function () { /* autoplay refused: the participant presses Play again */ });
-  } else if (stimulus.complete && stimulus.naturalWidth > 0) {
-    painted();
+    stimuli.forEach(function (video) {
+      video.addEventListener('playing', painted);
+      video.addEventListener('ended', function () { endedVideos.add(video); });
+      video.addEventListener('error', failed);
+      video.play().catch(function () { /* autoplay refused: the participant presses Play again */ });
+    });
+    videoControls(stimuli);
   } else {
-    stimulus.addEventListener('load', painted);
-    stimulus.addEventListener('error', failed);
+    let loaded = 0;
+    stimuli.forEach(function (image) {
+      const shown = function () { loaded += 1; if (loaded === stimuli.length) painted(); };
+      if (image.complete && image.naturalWidth > 0) shown();
+      else { image.addEventListener('load', shown); image.addEventListener('error', failed); }
+    });
   }
 
   // Coding videos: play/pause, replay, one frame back or forward (paused), slower speeds; by
-  // buttons and by keys (, . r p) unless a menu or text field has the focus.
-  function videoControls(video) {
+  // buttons and by keys (, . r p) unless a menu or text field has the focus. Replay and play act
+  // on every video of the screen (they play together); the others on the first (coding pages
+  // show one video).
+  function videoControls(videos) {
+    const video = videos[0];
     const fps = Number(video.dataset.fps) || 0;
     const button = function (id) { return document.getElementById(id); };
     const play = button('play');
@@ -67,8 +78,15 @@
     video.addEventListener('ended', showState);
     video.addEventListener('ratechange', function () { if (!video.paused) used(video.playbackRate); });
     const actions = {
-      replay: function () { viewing.replays += 1; ended = false; video.currentTime = 0; video.play().catch(function () {}); },
-      play: function () { if (video.paused) video.play().catch(function () {}); else video.pause(); },
+      replay: function () {
+        viewing.replays += 1;
+        endedVideos.clear();
+        videos.forEach(function (v) { v.currentTime = 0; v.play().catch(function () {}); });
+      },
+      play: function () {
+        const start = video.paused;
+        videos.forEach(function (v) { if (start) v.play().catch(function () {}); else v.pause(); });
+      },
       step: function (frames) {
         if (!fps) return;
         video.pause();
@@ -181,7 +199,7 @@
       idempotency_key: form.elements.idempotency_key.value,
       fields: fields,
       rt_ms: shownAt === null ? null : Math.round((now - shownAt) * 10) / 10,
-      video_ended: stimulus.tagName === 'VIDEO' ? ended : null,
+      video_ended: stimulus.tagName === 'VIDEO' ? allEnded() : null,
       load_failed: form.elements.load_failed.value === '1',
       viewing: { replays: viewing.replays, frame_steps: viewing.frame_steps, speeds: viewing.speeds.slice(), time_on_task_ms: timeOnTask(now) },
     };

@@ -181,6 +181,17 @@ impl Db {
         }
     }
 
+    /// Stores the answers of one screen's trials (`study::screen`; `(position, key, answer)` in
+    /// screen order) in one step: all of them, or none when any is refused. Returns the last
+    /// trial's outcome (where the participation stands after the screen).
+    pub async fn save_screen(&self, token: &str, parts: &[(i64, String, Answer)], timing: SaveTiming, design: &StudyDesign) -> Result<SaveOutcome, DbError> {
+        let saves = parts.iter().map(|(position, key, answer)| SaveRequest::new(token, *position, key, answer, timing.clone(), design)).collect();
+        match self.write(Request::SaveScreen(saves)).await? {
+            Written::Saved(outcome) => Ok(outcome),
+            other => Err(other.unexpected()),
+        }
+    }
+
     /// The participant withdraws: their answers stay stored but leave every export.
     pub async fn withdraw(&self, token: &str) -> Result<(), DbError> {
         self.record(Request::Withdraw { token: token.to_string() }).await

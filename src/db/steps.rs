@@ -434,18 +434,29 @@ macro_rules! steps {
             Ok(SaveOutcome { saved: Saved::Stored, state, remaining })
         }
 
+        /// [`save_in`], and the loads forgotten when the save screened the participation out.
+        async fn save_forgetting(conn: &mut Conn, save: &SaveRequest, loads: &mut StimulusLoads) -> Result<SaveOutcome, DbError> {
+            let outcome = save_in(conn, save).await?;
+            if outcome.saved == Saved::Stored && outcome.state == SessionState::ScreenedOut {
+                loads.forget();
+            }
+            Ok(outcome)
+        }
+
         /// Runs one participation change inside the caller's transaction.
         pub(crate) async fn run(conn: &mut Conn, request: Request, loads: &mut StimulusLoads) -> Result<Written, DbError> {
             match request {
                 Request::Start(start) => start_in(conn, &start, loads).await.map(Written::Started),
                 Request::Consent { token, consent_sha256 } => consent_in(conn, &token, &consent_sha256).await.map(|()| Written::Recorded),
                 Request::Demographics { token, demographics } => demographics_in(conn, &token, &demographics).await.map(|()| Written::Recorded),
-                Request::Save(save) => {
-                    let outcome = save_in(conn, &save).await?;
-                    if outcome.saved == Saved::Stored && outcome.state == SessionState::ScreenedOut {
-                        loads.forget();
+                Request::Save(save) => save_forgetting(conn, &save, loads).await.map(Written::Saved),
+                Request::SaveScreen(saves) => {
+                    // The caller's savepoint holds them together: one failing undoes the others.
+                    let mut last = None;
+                    for save in &saves {
+                        last = Some(save_forgetting(conn, save, loads).await?);
                     }
-                    Ok(Written::Saved(outcome))
+                    last.map(Written::Saved).ok_or_else(|| DbError::Invalid("a screen without trials".into()))
                 }
                 Request::Withdraw { token } => {
                     withdraw_in(conn, &token).await?;

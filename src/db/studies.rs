@@ -335,6 +335,9 @@ pub fn set_stimuli(set_dir: &std::path::Path, design: &crate::study::StudyDesign
     if stimuli.is_empty() {
         return Err(DbError::Invalid(format!("{}: no stimuli of the media this study asks for", manifest.display())));
     }
+    if design.rating.side_by_side {
+        check_screens(&stimuli).map_err(|e| DbError::Invalid(format!("{}: {e}", manifest.display())))?;
+    }
     if crate::study::entry::together(design) {
         let places = crate::study::entry::places(&rows).map_err(|e| DbError::Invalid(format!("{}: {e}", manifest.display())))?;
         for (i, place) in places.into_iter().enumerate() {
@@ -348,6 +351,19 @@ pub fn set_stimuli(set_dir: &std::path::Path, design: &crate::study::StudyDesign
         return Err(DbError::Invalid(format!("{}: arm \"{}\" admits none of the study's stimuli (check its media and intensities)", manifest.display(), empty.name)));
     }
     Ok(stimuli)
+}
+
+/// With `[rating] side_by_side`, each label's stimuli fit on one screen.
+fn check_screens(stimuli: &[StudyStimulus]) -> Result<(), String> {
+    let mut per_label: std::collections::BTreeMap<&str, usize> = std::collections::BTreeMap::new();
+    for s in stimuli {
+        *per_label.entry(s.emotion.as_str()).or_default() += 1;
+    }
+    let max = crate::study::screen::MAX_SIDE_BY_SIDE;
+    match per_label.into_iter().find(|(_, n)| *n > max) {
+        Some((label, n)) => Err(format!("label \"{}\" has {n} stimuli, more than the {max} that [rating] side_by_side shows on one screen", crate::study::excerpt(label, 64))),
+        None => Ok(()),
+    }
 }
 
 #[cfg(test)]
@@ -367,6 +383,17 @@ mod tests {
         assert!(matches!(&status, DbError::Internal(m) if m.contains("unknown study status \"paused\"")), "{status}");
         let id = db.study_stimuli(1).await.expect_err("an unknown stimulus id");
         assert!(matches!(&id, DbError::Internal(m) if m.contains("unknown stimulus id \"s01\"")), "{id}");
+    }
+
+    #[test]
+    fn a_label_with_more_stimuli_than_a_screen_shows_is_refused_by_name() {
+        let stimulus = |i: usize, label: &str| StudyStimulus { emotion: label.to_string(), ..StudyStimulus::still(StimulusId::parse(&crate::stimuli::stimulus_id(1, i)).expect("id")) };
+        let mut stimuli: Vec<StudyStimulus> = (0..4).map(|i| stimulus(i, "laughs:laughter")).collect();
+        stimuli.push(stimulus(4, "laughs:sly_smile"));
+        assert_eq!(check_screens(&stimuli), Ok(()), "four on one screen");
+        stimuli.push(stimulus(5, "laughs:laughter"));
+        let e = check_screens(&stimuli).expect_err("five of one label");
+        assert!(e.contains("label \"laughs:laughter\" has 5 stimuli, more than the 4"), "{e}");
     }
 
     #[test]

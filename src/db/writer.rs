@@ -46,6 +46,8 @@ pub(crate) enum Request {
     Consent { token: String, consent_sha256: String },
     Demographics { token: String, demographics: Demographics },
     Save(SaveRequest),
+    /// The trials of one screen (`study::screen`), stored together or not at all.
+    SaveScreen(Vec<SaveRequest>),
     Withdraw { token: String },
     Exclude { study_id: i64, public_id: String, excluded: bool, reason: String },
     /// Abandons the reservations that expired before `now`.
@@ -67,7 +69,7 @@ impl Request {
     /// A participant's step in a participation already started: it never waits behind ordered
     /// requests.
     fn is_step(&self) -> bool {
-        matches!(self, Request::Consent { .. } | Request::Demographics { .. } | Request::Save(_))
+        matches!(self, Request::Consent { .. } | Request::Demographics { .. } | Request::Save(_) | Request::SaveScreen(_))
     }
 }
 
@@ -344,6 +346,29 @@ mod tests {
         assert_eq!(state(active.clone()).await, (SessionState::Active, true));
         assert_eq!(state(broken).await, (SessionState::Reserved, false), "the consent's update was rolled back");
         assert_eq!(state(withdrawn).await, (SessionState::Withdrawn, false));
+    }
+
+    #[tokio::test]
+    async fn a_screen_is_stored_whole_or_not_at_all() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let (db, id, design) = study(&dir, "", 3).await;
+        let mut loads = StimulusLoads::default();
+        let first = store(&db.sqlite().writer, &mut loads, vec![start(id, &design, "w1")]).await.expect("start");
+        let token = token(&first[0]);
+        db.give_consent(&token, &design.consent_sha256()).await.expect("consent");
+        let answer = Answer::emotion("fear");
+        let save = |position: i64, key: &str| SaveRequest::new(&token, position, key, &answer, SaveTiming::default(), &design);
+        // The screen's second trial does not exist: its first is not stored either.
+        let refused = store(&db.sqlite().writer, &mut loads, vec![Request::SaveScreen(vec![save(0, "s-0"), save(9, "s-9")])]).await.expect("batch");
+        assert!(matches!(refused[0], Err(DbError::NotFound(_))), "{:?}", refused[0]);
+        let p = db.participation(&token).await.expect("read").expect("participation");
+        assert!(db.trials(p.id).await.expect("trials").iter().all(|t| !t.answered), "nothing of the refused screen was stored");
+        let screen = || Request::SaveScreen(vec![save(0, "s-0"), save(1, "s-1")]);
+        let stored = store(&db.sqlite().writer, &mut loads, vec![screen(), screen()]).await.expect("batch");
+        assert!(matches!(stored[0], Ok(Written::Saved(SaveOutcome { saved: Saved::Stored, remaining: 1, .. }))), "the last trial's outcome: {:?}", stored[0]);
+        assert!(matches!(stored[1], Ok(Written::Saved(SaveOutcome { saved: Saved::Repeated, .. }))), "a repeated screen: {:?}", stored[1]);
+        let answered: Vec<bool> = db.trials(p.id).await.expect("trials").iter().map(|t| t.answered).collect();
+        assert_eq!(answered, [true, true, false]);
     }
 
     #[tokio::test]

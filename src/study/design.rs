@@ -21,6 +21,7 @@
 //!              describe_labels = false                              # show each label's description
 //! [au_coding]  intensity = false; side = false; together = false   # together: an entry's video + stills, one trial
 //! [[rating.item]]  measure = "q1"; prompt = "Does the motion feel right?"; min = 0; max = 5
+//! [rating]     side_by_side = false   # a label's stimuli on one screen (with labels_per_participant)
 //! [attention]  max_failures = 2; checks = [{ instruction = "…", measure = "emotion", value = "surprise" }]
 //! [recruitment] platform = "prolific"; completion_code = "C0DE"
 //! [[recruitment.sources]] group = "amt"; platform = "mturk"; completion_code = "…"   # more ways in
@@ -206,6 +207,11 @@ pub struct RatingOptions {
     /// stimulus whose label has none here shows its label's declared description.
     #[serde(default)]
     pub descriptions: std::collections::BTreeMap<String, String>,
+    /// A label's stimuli on one screen, each with its own items (`study::screen`; needs
+    /// `labels_per_participant`): seed 004's study 1 shows the real and the generated video
+    /// of a type together.
+    #[serde(default)]
+    pub side_by_side: bool,
 }
 
 #[derive(Debug, Deserialize)]
@@ -413,6 +419,9 @@ impl RawDesign {
         if self.ratings_per_stimulus > 0 && self.trials_per_participant == 0 && self.labels_per_participant == 0 {
             return Err(fail("ratings_per_stimulus", "needs trials_per_participant > 0 or labels_per_participant > 0 (a share of the stimuli per participant)"));
         }
+        if self.rating.side_by_side && (self.task != TaskKind::Rating || self.labels_per_participant == 0) {
+            return Err(fail("rating.side_by_side", "shows a label's stimuli on one screen: it needs task = \"rating\" and labels_per_participant > 0"));
+        }
         if self.reservation_minutes == 0 {
             return Err(fail("reservation_minutes", "must be at least 1"));
         }
@@ -619,6 +628,8 @@ debrief = "Thanks."
             (format!("{BASE}[attention]\nchecks = [{{ instruction = \"x\", measure = \"emotion\", value = \"joy\" }}]\n"), "attention.checks[1]"),
             (format!("{BASE}[recruitment]\nplatform = \"prolific\"\n"), "recruitment.completion_code"),
             (format!("{BASE}[recruitment]\nplatform = \"sona\"\nsona_credit_url = \"http://x\"\n"), "recruitment.sona_credit_url"),
+            (BASE.replace("\"emotion\"", "\"rating\"") + "[rating]\nside_by_side = true\n[[rating.item]]\nmeasure = \"q1\"\nprompt = \"?\"\nmin = 0\nmax = 5\n", "rating.side_by_side"),
+            (format!("labels_per_participant = 2\n{BASE}[rating]\nside_by_side = true\n"), "rating.side_by_side"),
         ];
         for (text, field) in cases {
             let e = StudyDesign::from_toml(&text).unwrap_err();

@@ -5,7 +5,8 @@
 //! with the participant's seed; [`session`] is the participation state machine; [`measure`]
 //! declares every measure and label set once; [`task`] turns a submitted answer into typed
 //! judgements of those measures (the long response format, design.md §3); [`entry`] groups a
-//! set's stimuli into entries for trials that show them together; [`viewing`] declares the
+//! set's stimuli into entries for trials that show them together; [`screen`] says which trials
+//! one page shows and answers together (a label's stimuli side by side); [`viewing`] declares the
 //! trial data on how media were viewed (replays, frame steps, speeds, time on task). The web layer (`crate::web`) and the database (`crate::db`) call
 //! these; nothing here knows about HTTP or SQL.
 
@@ -18,6 +19,7 @@ pub mod measure;
 pub mod session;
 pub mod task;
 pub mod recruitment;
+pub mod screen;
 pub mod templates;
 pub mod viewing;
 pub mod worker;

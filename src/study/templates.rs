@@ -35,10 +35,12 @@ mod tests {
         assert_eq!(description.items.iter().map(|i| (i.measure, i.min, i.max)).collect::<Vec<_>>(), [(Scale::DescriptionMatch, 0, 5)]);
         assert_eq!(description.items[0].prompt, "Does the expression correspond to the description?");
         assert_eq!((description.trials_per_participant, description.labels_per_participant), (0, 7), "seven whole types: both videos of each");
+        assert!(description.rating.side_by_side, "the real and the generated video on one screen");
         let motion = design("laugh-motion.toml");
         assert_eq!(motion.labels.id(), "laughs");
         assert_eq!(motion.items.iter().map(|i| i.measure).collect::<Vec<_>>(), [Scale::Q1, Scale::Q2]);
         assert!(motion.items[0].prompt.ends_with("Does the motion feel right?") && motion.items[1].prompt.ends_with("Does the motion represent the description?"));
         assert_eq!(motion.trials_per_participant, 0, "within-subject: every video");
+        assert!(!motion.rating.side_by_side, "one video per screen");
     }
 }

@@ -140,7 +140,8 @@ pub struct AppState {
     pub edge: Arc<Edge>,
 }
 
-const TEMPLATES: [(&str, &str); 12] = [
+const TEMPLATES: [(&str, &str); 13] = [
+    ("components.html", include_str!("../../templates/components.html")),
     ("base.html", include_str!("../../templates/base.html")),
     ("landing.html", include_str!("../../templates/landing.html")),
     ("consent.html", include_str!("../../templates/consent.html")),

@@ -28,6 +28,7 @@ use crate::facs::{Catalog, Region};
 use crate::stimuli::manifest::Media;
 use crate::study::assign::TrialKind;
 use crate::study::measure::{Demographic, LabelSet};
+use crate::study::screen::{self, ScreenError, Slot};
 use crate::study::{Platform, SessionState, Submission, TaskKind, worker};
 
 pub fn routes() -> Router<AppState> {
@@ -396,11 +397,9 @@ async fn trial_page(State(app): State<AppState>, token: ParticipationToken) -> R
     let attention = trial.check_index.and_then(|i| design.attention.checks.get(i)).map(|c| c.instruction.clone());
     let description = (design.task == TaskKind::Rating).then(|| stimulus_description(design, &stimulus.emotion)).flatten();
     let choices = label_choices(design);
-    let items: Vec<_> = design
-        .items
-        .iter()
-        .map(|i| json!({ "measure": i.measure, "prompt": i.prompt, "values": i.values().collect::<Vec<_>>(), "min_label": i.min_label, "max_label": i.max_label }))
-        .collect();
+    let items = items_context(design, None);
+    let screen = screen_context(&token, &study, &trials, trial.position);
+    let shown_together = screen.as_array().map_or(1, |parts| parts.len().max(1));
     let context = json!({
         "token": token,
         "position": trial.position,
@@ -419,12 +418,47 @@ async fn trial_page(State(app): State<AppState>, token: ParticipationToken) -> R
         "coding_intensity": design.au_coding.intensity,
         "coding_side": design.au_coding.side,
         "items": items,
+        "screen": screen,
         "done": done,
         "total": trials.len(),
         "percent": done * 100 / trials.len().max(1),
-        "progress_label": format!("{} of {}", done + 1, trials.len()),
+        "progress_label": progress_label(done, shown_together, trials.len()),
     });
     app.render("trial.html", &merge(page(&study, "Face"), context))
+}
+
+/// A trial's Likert items; on a screen of several trials, each answer field names its trial
+/// (`<measure>@<position>`, `study::screen`).
+fn items_context(design: &crate::study::StudyDesign, position: Option<i64>) -> serde_json::Value {
+    let name = |measure: &str| position.map_or_else(|| measure.to_string(), |p| format!("{measure}@{p}"));
+    design
+        .items
+        .iter()
+        .map(|i| json!({ "measure": i.measure, "name": name(i.measure.name()), "prompt": i.prompt, "values": i.values().collect::<Vec<_>>(), "min_label": i.min_label, "max_label": i.max_label }))
+        .collect()
+}
+
+/// The trials shown side by side with the one at `position` (itself first), each with its video
+/// and items; `null` for a trial shown alone. The page never says which video is which.
+fn screen_context(token: &ParticipationToken, study: &LoadedStudy, trials: &[TrialRow], position: i64) -> serde_json::Value {
+    if !study.design.rating.side_by_side {
+        return serde_json::Value::Null;
+    }
+    let positions = screen::screen_at(&slots(study, trials), position, true).unwrap_or_default();
+    if positions.len() < 2 {
+        return serde_json::Value::Null;
+    }
+    let parts: Vec<_> = positions
+        .iter()
+        .enumerate()
+        .map(|(i, p)| json!({ "position": p, "number": i + 1, "url": format!("/p/{token}/media/{p}"), "items": items_context(&study.design, Some(*p)) }))
+        .collect();
+    json!(parts)
+}
+
+/// "3 of 14", or "3–4 of 14" for a screen of two trials.
+fn progress_label(done: usize, shown: usize, total: usize) -> String {
+    if shown > 1 { format!("{}–{} of {total}", done + 1, done + shown) } else { format!("{} of {total}", done + 1) }
 }
 
 /// The media a trial shows beside its first, by part (their URLs say only the position and part).
@@ -439,12 +473,42 @@ fn beside_context(token: &ParticipationToken, position: i64, shown: &[&crate::db
     json!(beside)
 }
 
-/// Validates and stores one answer; returns where the participant goes next.
+/// The plan as the screens see it: each trial's position, kind and stimulus label.
+fn slots<'a>(study: &'a LoadedStudy, trials: &[TrialRow]) -> Vec<Slot<'a>> {
+    trials.iter().map(|t| Slot { position: t.position, kind: t.kind, label: study.stimuli.get(&t.stimulus_id).map_or("", |s| s.emotion.as_str()) }).collect()
+}
+
+/// The positions of the screen a save at `position` answers (that trial alone unless the design
+/// shows a label's stimuli side by side); a trial shown beside another is saved with it.
+async fn screen_positions(app: &AppState, token: &ParticipationToken, study: &LoadedStudy, position: i64) -> Result<Vec<i64>, WebError> {
+    if !study.design.rating.side_by_side {
+        return Ok(vec![position]);
+    }
+    let p = app.db.participation(token.as_str()).await?.ok_or(WebError::NotFound)?;
+    let trials = app.db.trials(p.id).await?;
+    match screen::screen_at(&slots(study, &trials), position, true) {
+        Ok(positions) => Ok(positions),
+        // The writer names a missing trial as it does for every design.
+        Err(ScreenError::NoTrial(_)) => Ok(vec![position]),
+        Err(e @ ScreenError::NotFirst { .. }) => Err(WebError::Conflict(e.to_string())),
+    }
+}
+
+/// Validates and stores the answers of one screen (one trial, or a label's trials side by
+/// side, stored together); returns where the participant goes next.
 async fn save(app: &AppState, token: &ParticipationToken, position: i64, submission: Submission) -> Result<(SaveOutcome, String), WebError> {
     let study = participation_study(app, token).await?;
-    let answer = submission.answer(&study.design)?;
+    let positions = screen_positions(app, token, &study, position).await?;
+    let mut parts = Vec::with_capacity(positions.len());
+    for (position, part) in screen::split(&submission, &positions)? {
+        let answer = part.answer(&study.design).map_err(|e| screen::named_for(e, position, positions.len()))?;
+        parts.push((position, part.idempotency_key, answer));
+    }
     let timing = SaveTiming { rt_ms: submission.rt_ms, video_ended: submission.video_ended, load_failed: submission.load_failed, viewing: submission.viewing };
-    let outcome = app.db.save_response(token.as_str(), position, &submission.idempotency_key, &answer, timing, &study.design).await?;
+    let outcome = match parts.as_slice() {
+        [(position, key, answer)] => app.db.save_response(token.as_str(), *position, key, answer, timing, &study.design).await?,
+        _ => app.db.save_screen(token.as_str(), &parts, timing, &study.design).await?,
+    };
     let next = if outcome.state == SessionState::Active && outcome.remaining > 0 { format!("/p/{token}/trial") } else { format!("/p/{token}/done") };
     Ok((outcome, next))
 }
@@ -473,7 +537,7 @@ async fn save_json(State(app): State<AppState>, token: ParticipationToken, Trial
 /// The file of the trial at `position` (its `part`: 0 for its first medium, 1… for those shown
 /// beside it) if the participant may fetch it now: the participant is at the trials (consent and
 /// the design's steps done) and the trial is the current one, an answered one or one of the
-/// [`PRELOAD_AHEAD`] after the current one; the file lies directly under the set's `media/`.
+/// [`PRELOAD_AHEAD`] after the current one (and the rest of a side-by-side screen); the file lies directly under the set's `media/`.
 /// Anything else is 404.
 async fn reachable_media(app: &AppState, token: &ParticipationToken, position: i64, part: usize) -> Result<(std::path::PathBuf, Media), WebError> {
     let (p, study) = participation(app, token).await?;
@@ -483,7 +547,9 @@ async fn reachable_media(app: &AppState, token: &ParticipationToken, position: i
     }
     let trials = app.db.trials(p.id).await?;
     let current = trials.iter().find(|t| !t.answered).map_or(i64::MAX, |t| t.position);
-    let trial = trials.iter().find(|t| t.position == position && position <= current.saturating_add(PRELOAD_AHEAD)).ok_or(WebError::NotFound)?;
+    // A screen shows up to MAX_SIDE_BY_SIDE trials from the current one on.
+    let ahead = if study.design.rating.side_by_side { PRELOAD_AHEAD + screen::MAX_SIDE_BY_SIDE as i64 - 1 } else { PRELOAD_AHEAD };
+    let trial = trials.iter().find(|t| t.position == position && position <= current.saturating_add(ahead)).ok_or(WebError::NotFound)?;
     let shown = study.shown(&trial.stimulus_id);
     let stimulus = shown.get(part).filter(|s| crate::stimuli::manifest::is_media_path(&s.file)).ok_or(WebError::NotFound)?;
     Ok((study.set_dir.join(&stimulus.file), stimulus.media))

@@ -12,6 +12,7 @@ use std::collections::BTreeMap;
 
 use crate::browser::Browser;
 use crate::cli::facslab_ok;
+use crate::browser::TIMEOUT;
 use crate::e2e::{path, start_session, submit, tap, trial_view, wait_for_page, watch_to_the_end};
 use crate::server::*;
 
@@ -88,10 +89,15 @@ fn shown_type(page: &str) -> usize {
     TYPES.iter().position(|t| page.contains(&laughs.label(t).unwrap().description)).unwrap_or_else(|| panic!("no type's description on the page: {}", page.lines().find(|l| l.contains("description")).unwrap_or("")))
 }
 
-/// Answers every trial on screen by clicking, checking that each shows a description; returns
-/// the descriptions shown, in order. Screenshots the first trial into `shots` (desktop and phone
-/// size).
-async fn click_through(browser: &Browser, scales: &[&str], shots: &std::path::Path, name: &str) -> Vec<String> {
+/// The positions of the trials a page shows side by side (empty for a page of one trial).
+fn screen_positions(page: &str) -> Vec<i64> {
+    page.split("data-position=\"").skip(1).map(|rest| rest.split('"').next().unwrap().parse().unwrap()).collect()
+}
+
+/// Answers every screen by clicking, checking that each shows a description; returns per screen
+/// the description shown and how many videos it showed side by side (1 for a page of one).
+/// Screenshots the first screen into `shots` (desktop and phone size).
+async fn click_through(browser: &Browser, scales: &[&str], shots: &std::path::Path, name: &str) -> Vec<(String, usize)> {
     let mut shown = Vec::new();
     while path(browser).await.ends_with("/trial") {
         let view = trial_view(browser).await;
@@ -104,17 +110,46 @@ async fn click_through(browser: &Browser, scales: &[&str], shots: &std::path::Pa
             browser.set_window_size(1280, 900).await;
         }
         assert_eq!(view.media, "video");
-        watch_to_the_end(browser).await;
-        for (i, scale) in scales.iter().enumerate() {
-            tap(browser, &format!("input[name={scale}][value=\"{}\"]", (view.position as usize + i) % 6)).await;
+        let parts = screen_positions(&browser.execute("return document.getElementById('trial').outerHTML;").await.as_str().unwrap().to_string());
+        if parts.is_empty() {
+            watch_to_the_end(browser).await;
+        } else {
+            assert_eq!(parts[0], view.position, "a screen is saved at its first trial");
+            browser.wait_for("[...document.querySelectorAll('video.stimulus')].every(v => v.ended)", TIMEOUT).await;
+        }
+        let names: Vec<(String, i64)> = if parts.is_empty() { vec![(String::new(), view.position)] } else { parts.iter().map(|p| (format!("@{p}"), *p)).collect() };
+        for (suffix, position) in &names {
+            for (i, scale) in scales.iter().enumerate() {
+                tap(browser, &format!("input[name=\"{scale}{suffix}\"][value=\"{}\"]", (*position as usize + i) % 6)).await;
+            }
         }
         submit(browser, &view).await;
-        shown.push(description);
+        shown.push((description, parts.len().max(1)));
     }
     shown
 }
 
-/// Participants over HTTP: each answers its trials with [`rating`] of the stimulus shown.
+/// The fields of one screen: each scale rated by [`rating`], named by trial when the screen
+/// shows several.
+fn screen_fields(participant: usize, positions: &[i64], t: usize, scales: &[&str]) -> Vec<(String, String)> {
+    let several = positions.len() > 1;
+    let name = |scale: &str, p: i64| if several { format!("{scale}@{p}") } else { scale.to_string() };
+    positions.iter().flat_map(|&p| scales.iter().map(move |s| (name(s, p), rating(participant, p, t, s).to_string()))).collect()
+}
+
+/// A screen of two trials is stored whole or not at all: half its answers are refused naming
+/// the missing field, a save at its second trial is refused, and neither stores anything.
+async fn a_screen_is_saved_whole(http: &reqwest::Client, server: &Server, token: &str, positions: &[i64], fields: &[(&str, &str)]) {
+    let (status, body) = save(http, server, token, positions[0], &format!("half-{token}"), &fields[..1]).await;
+    assert_eq!(status, 422, "{body}");
+    assert!(body["error"].as_str().unwrap_or_default().contains(&format!("@{}", positions[1])), "the missing answer is named: {body}");
+    let (status, body) = save(http, server, token, positions[1], &format!("second-{token}"), &fields[1..]).await;
+    assert_eq!(status, 409, "{body}");
+    assert!(body["error"].as_str().unwrap_or_default().contains(&format!("shown beside trial {}", positions[0])), "{body}");
+    assert_eq!(current_position(http, server, token).await, Some(positions[0]), "nothing of the screen was stored");
+}
+
+/// Participants over HTTP: each answers its screens with [`rating`] of the stimulus shown.
 async fn http_participants(server: &Server, slug: &str, scales: &[&str], count: usize) {
     let http = client();
     for p in 0..count {
@@ -123,10 +158,17 @@ async fn http_participants(server: &Server, slug: &str, scales: &[&str], count: 
         while let Some(position) = current_position(&http, server, &token).await {
             let page = http.get(server.url(&format!("/p/{token}/trial"))).send().await.unwrap().text().await.unwrap();
             let t = shown_type(&page);
-            let values: Vec<(String, String)> = scales.iter().map(|s| (s.to_string(), rating(p, position, t, s).to_string())).collect();
+            let parts = screen_positions(&page);
+            let positions = if parts.is_empty() { vec![position] } else { parts };
+            let values = screen_fields(p, &positions, t, scales);
             let fields: Vec<(&str, &str)> = values.iter().map(|(s, v)| (s.as_str(), v.as_str())).collect();
+            if p == 0 && positions.len() == 2 {
+                a_screen_is_saved_whole(&http, server, &token, &positions, &fields).await;
+            }
             let (status, ack) = save(&http, server, &token, position, &format!("k-{token}-{position}"), &fields).await;
             assert_eq!(status, 200, "{ack}");
+            let (status, again) = save(&http, server, &token, position, &format!("k-{token}-{position}"), &fields).await;
+            assert_eq!((status, again["saved"].as_str()), (200, Some("repeated")), "a repeated save of the screen is recognised: {again}");
         }
     }
 }
@@ -167,11 +209,14 @@ async fn e2e_laugh_templates_run_in_the_browser_and_report_anova_and_scheffe() {
         let server = lab.serve();
         start_session(&browser, &server, &slug, true).await;
         let shown = click_through(&browser, scales, &shots, &slug).await;
-        assert_eq!(shown.len(), if slug == "laugh-motion" { 26 } else { 14 }, "{slug}: trials per participant");
+        let trials: usize = shown.iter().map(|(_, n)| n).sum();
+        assert_eq!(trials, if slug == "laugh-motion" { 26 } else { 14 }, "{slug}: trials per participant");
         if slug == "laugh-description" {
-            let types: std::collections::BTreeSet<&String> = shown.iter().collect();
+            let types: std::collections::BTreeSet<&String> = shown.iter().map(|(d, _)| d).collect();
             assert_eq!(types.len(), 7, "seven whole types");
-            assert!(shown.chunks(2).all(|pair| pair[0] == pair[1]), "a type's two videos follow each other: {shown:?}");
+            assert!(shown.iter().all(|(_, n)| *n == 2), "a type's two videos on one screen: {shown:?}");
+        } else {
+            assert!(shown.iter().all(|(_, n)| *n == 1), "laugh-motion shows one video per screen");
         }
         wait_for_page(&browser, "/done").await;
         http_participants(&server, &slug, scales, 7).await;

@@ -318,7 +318,7 @@ fn manifest_rows(lab: &Lab) -> Vec<serde_json::Value> {
 /// position and part only; a fourth part does not exist. Returns the page.
 async fn entry_trial_page(http: &reqwest::Client, server: &Server, token: &str, position: i64, secrets: &[String]) -> String {
     let html = http.get(server.url(&format!("/p/{token}/trial"))).send().await.unwrap().text().await.unwrap();
-    assert!(html.contains(&format!("<video id=\"stimulus\" aria-label=\"A moving face\" src=\"/p/{token}/media/{position}\"")), "{html}");
+    assert!(html.contains(&format!("<video id=\"stimulus\" class=\"stimulus\" aria-label=\"A moving face\" src=\"/p/{token}/media/{position}\"")), "{html}");
     assert!(html.contains("data-fps=\"10\"") && html.contains("id=\"step-forward\"") && html.contains("data-speed=\"0.25\""), "{html}");
     for part in 1..=3 {
         assert!(html.contains(&format!("src=\"/p/{token}/media/{position}/{part}\"")), "part {part} missing: {html}");
