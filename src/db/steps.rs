@@ -256,7 +256,6 @@ macro_rules! steps {
             Ok(start.arms.get(crate::study::arm::choose_arm(&counts, seed)).cloned().unwrap_or_default())
         }
 
-        /// The stimuli of `arm` (`None`: no arm, every stimulus of the study).
         /// The participant's share and plan: a balanced share of stimuli, or whole labels
         /// (`labels_per_participant`); `None` when the study has every rating it asked for.
         async fn plan_share(conn: &mut Conn, start: &StartRequest, loads: &[(String, usize)], pool: &[String], seed: u64) -> Result<Option<(Vec<String>, Vec<PlannedTrial>)>, DbError> {
@@ -273,6 +272,7 @@ macro_rules! steps {
             Ok(Some((groups.concat(), plan)))
         }
 
+        /// The stimuli of `arm` (`None`: no arm, every stimulus of the study).
         async fn arm_members(conn: &mut Conn, study_id: i64, arm: &str) -> Result<Option<std::collections::HashSet<String>>, DbError> {
             if arm.is_empty() {
                 return Ok(None);

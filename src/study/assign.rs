@@ -50,19 +50,24 @@ pub struct StudyFull {
     pub target: usize,
 }
 
+/// `items` by load, least loaded first, ties in an order seeded by `seed` (the same seed gives
+/// the same order).
+fn least_loaded_first<T>(items: impl IntoIterator<Item = (usize, T)>, seed: u64) -> Vec<T> {
+    let mut rng = SplitMix64(seed);
+    let mut order: Vec<(usize, u64, T)> = items.into_iter().map(|(load, item)| (load, rng.next_u64(), item)).collect();
+    order.sort_unstable_by_key(|(load, tie, _)| (*load, *tie));
+    order.into_iter().map(|(_, _, item)| item).collect()
+}
+
 /// The `share` least-loaded stimuli (`share` = 0: all of them). With a `target`, a participant
 /// is only taken while some stimulus is below it.
 pub fn choose_stimuli(loads: &[(String, usize)], share: usize, target: usize, seed: u64) -> Result<Vec<String>, StudyFull> {
     if target > 0 && loads.iter().all(|(_, load)| *load >= target) {
         return Err(StudyFull { target });
     }
-    let mut order: Vec<(usize, u64, &str)> = {
-        let mut rng = SplitMix64(seed ^ 0xA551_6E00);
-        loads.iter().map(|(id, load)| (*load, rng.next_u64(), id.as_str())).collect()
-    };
-    order.sort_unstable();
+    let order = least_loaded_first(loads.iter().map(|(id, load)| (*load, id)), seed ^ 0xA551_6E00);
     let n = if share == 0 { order.len() } else { share.min(order.len()) };
-    Ok(order[..n].iter().map(|(_, _, id)| id.to_string()).collect())
+    Ok(order[..n].iter().map(|id| id.to_string()).collect())
 }
 
 /// The stimuli of the `labels` least-loaded labels, a label's stimuli together (in id order),
@@ -79,13 +84,11 @@ pub fn choose_labels(loads: &[(String, usize)], label_of: &dyn Fn(&str) -> Optio
     if target > 0 && groups.values().all(|(load, _)| *load >= target) {
         return Err(StudyFull { target });
     }
-    let mut rng = SplitMix64(seed ^ 0xA551_6E01);
-    let mut order: Vec<(usize, u64, Vec<String>)> = groups.into_values().map(|(load, mut ids)| {
+    let groups = groups.into_values().map(|(load, mut ids)| {
         ids.sort();
-        (load, rng.next_u64(), ids)
-    }).collect();
-    order.sort_unstable();
-    Ok(order.into_iter().take(labels).map(|(_, _, ids)| ids).collect())
+        (load, ids)
+    });
+    Ok(least_loaded_first(groups, seed ^ 0xA551_6E01).into_iter().take(labels).collect())
 }
 
 /// The full plan: `practice` stimuli drawn from `pool` (not from the main share when the pool
