@@ -288,6 +288,12 @@ impl ChannelValues {
         self.one_sided.contains(channel) && !self.unilateral.contains(channel)
     }
 
+    /// Whether `channel` is a target authored for one side of the face (declared with `side`),
+    /// however it is driven.
+    pub fn authored_one_sided(&self, channel: &Channel) -> bool {
+        self.one_sided.contains(channel)
+    }
+
     /// Every non-rigid channel with its (left, right) values, in a fixed order.
     pub fn sided(&self) -> Vec<(&Channel, f32, f32)> {
         let mut out: Vec<(&Channel, f32, f32)> = Vec::new();
