@@ -32,11 +32,11 @@ const LID_CLEARANCE: f32 = 0.004;
 /// Width of the midline blend between left and right halves, decimetres: for channels that
 /// move both halves alike (a symmetric target, a shade), which a one-sided AU keeps to its half.
 const MIDLINE_BLEND: f32 = 0.15;
-/// The same for a target authored for one side (an ARKit Left/Right pair member): it already
-/// fades out toward the midline by itself, so the blend only cuts its small spill over the
-/// midline. The wide blend would also halve its own side within 1.5 cm of the midline (the upper
-/// lip's centre part that AU10 raises).
-const SIDE_TARGET_BLEND: f32 = 0.05;
+/// The same for the one-sided targets the basis lists in `narrow_midline` (AU10's lip raise):
+/// such a target already fades toward the midline by itself, so the blend only cuts its small
+/// spill over the midline; the wide blend would also halve its own side within 1.5 cm of the
+/// midline, where AU10 raises the upper lip most.
+const NARROW_MIDLINE_BLEND: f32 = 0.05;
 
 /// One eye after posing.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -179,7 +179,7 @@ pub fn pose(model: &FaceModel, prepared: &PreparedIdentity, values: &ChannelValu
         match channel {
             Channel::Target(name) => {
                 let whole = values.applies_whole(channel);
-                let blend = if values.authored_one_sided(channel) { SIDE_TARGET_BLEND } else { MIDLINE_BLEND };
+                let blend = if values.narrow_midline(channel) { NARROW_MIDLINE_BLEND } else { MIDLINE_BLEND };
                 let weight = |i: usize| if whole { left.max(right) } else { side_weight(left, right, model.rest[i].x, blend) };
                 for (variant, factor) in resolve_variants(name, prepared) {
                     add_target(&mut positions, &*model.target(&variant)?, |i| weight(i) * factor, not_eye);
@@ -413,8 +413,8 @@ mod tests {
     /// Every one-sided AU (but AU30, whose prefix is a direction) on every identity: the largest
     /// vertex displacement on the other half of the face is under a fifth of the largest on its
     /// own side, and the movement fades in from the midline (the midline itself moves under a
-    /// tenth as much; the fade is a smoothstep over [`MIDLINE_BLEND`], or [`SIDE_TARGET_BLEND`]
-    /// for a target authored for one side, see `side_weight`).
+    /// tenth as much; the fade is a smoothstep over [`MIDLINE_BLEND`], or [`NARROW_MIDLINE_BLEND`]
+    /// for the basis's `narrow_midline` targets, see `side_weight`).
     #[test]
     fn a_unilateral_au_moves_its_own_side_only() {
         let basis = AuBasis::built_in();
@@ -534,9 +534,9 @@ mod tests {
         assert_eq!(side_weight(1.0, 0.0, MIDLINE_BLEND, MIDLINE_BLEND), 1.0);
         assert_eq!(side_weight(0.2, 0.6, 0.01, MIDLINE_BLEND), 0.2);
         assert_eq!(side_weight(0.2, 0.6, -1.0, MIDLINE_BLEND), 0.6);
-        // A one-sided target's narrower blend is whole at its width, half at half of it.
-        assert_eq!(side_weight(1.0, 0.0, SIDE_TARGET_BLEND, SIDE_TARGET_BLEND), 1.0);
-        assert_eq!(side_weight(1.0, 0.0, SIDE_TARGET_BLEND / 2.0, SIDE_TARGET_BLEND), 0.5);
+        // The narrow blend is whole at its width, half at half of it.
+        assert_eq!(side_weight(1.0, 0.0, NARROW_MIDLINE_BLEND, NARROW_MIDLINE_BLEND), 1.0);
+        assert_eq!(side_weight(1.0, 0.0, NARROW_MIDLINE_BLEND / 2.0, NARROW_MIDLINE_BLEND), 0.5);
     }
 
     #[test]
