@@ -36,7 +36,7 @@ def main():
     index = ["# AU contact sheets", "", "Each sheet: the eight evaluation people (rows) at neutral and A–E (columns),",
              "rendered by `analysis/validation/calibrate.py table` and laid out by `sheets.py`;",
              "the measurements of the same renders are in `analysis/validation/results/calibration.csv`.",
-             "`emfacs-prototypes.jpg` is `facslab sheet --set emotions` (the EmFACS prototypes at E).", ""]
+             "`emfacs-prototypes.jpg`: the eight people's rows of `facslab sheet --set emotions` (every EmFACS prototype at E).", ""]
     for code in codes:
         sheet = Image.new("RGB", (TILE_W * len(COLUMNS) + 34, LABEL_H + tile_h * len(people)), "white")
         draw = ImageDraw.Draw(sheet)

@@ -90,6 +90,8 @@ pub enum RigError {
     Missing(AuCode),
     #[error("pair corrective {0}")]
     Corrective(String),
+    #[error("narrow_midline names \"{0}\", which is not a one-sided target of the AU basis")]
+    NarrowMidline(String),
 }
 
 #[derive(Debug, Clone)]
@@ -109,6 +111,8 @@ pub struct AuRig {
 
 #[derive(Deserialize)]
 struct BasisFile {
+    #[serde(default)]
+    narrow_midline: Vec<String>,
     au: Vec<RawAu>,
 }
 
@@ -139,6 +143,8 @@ pub struct AuBasis {
     rigs: BTreeMap<AuCode, AuRig>,
     /// Channels that belong to one side of the face (declared with `side`).
     one_sided: std::collections::BTreeSet<Channel>,
+    /// One-sided targets a one-sided AU blends over the narrow midline band (`narrow_midline`).
+    narrow_midline: std::collections::BTreeSet<Channel>,
     /// Pair correctives, added after Eq. 1.
     correctives: Vec<corrective::Corrective>,
 }
@@ -165,7 +171,15 @@ impl AuBasis {
                 return Err(RigError::Duplicate(raw.code));
             }
         }
-        Ok(AuBasis { rigs, one_sided, correctives: Vec::new() })
+        let mut narrow_midline = std::collections::BTreeSet::new();
+        for name in file.narrow_midline {
+            let channel = Channel::parse(&name)?;
+            if !one_sided.contains(&channel) {
+                return Err(RigError::NarrowMidline(name));
+            }
+            narrow_midline.insert(channel);
+        }
+        Ok(AuBasis { rigs, one_sided, narrow_midline, correctives: Vec::new() })
     }
 
     /// This basis with the pair correctives of `text` (replacing any it had).
@@ -224,7 +238,7 @@ impl AuBasis {
                 *values.entry((channel, side)).or_insert(0.0) += value;
             }
         }
-        Ok(ChannelValues { values, one_sided: self.one_sided.clone(), unilateral })
+        Ok(ChannelValues { values, one_sided: self.one_sided.clone(), narrow_midline: self.narrow_midline.clone(), unilateral })
     }
 }
 
@@ -266,6 +280,8 @@ fn driven(rig: &AuRig, laterality: Laterality) -> Vec<(&ChannelUse, Side)> {
 pub struct ChannelValues {
     values: BTreeMap<(Channel, Side), f32>,
     one_sided: std::collections::BTreeSet<Channel>,
+    /// One-sided targets blended over the narrow midline band.
+    narrow_midline: std::collections::BTreeSet<Channel>,
     /// Channels driven by a one-sided activation (their effect is kept to that side).
     unilateral: std::collections::BTreeSet<Channel>,
 }
@@ -286,6 +302,12 @@ impl ChannelValues {
     /// unilateral AU stays on its own side.
     pub fn applies_whole(&self, channel: &Channel) -> bool {
         self.one_sided.contains(channel) && !self.unilateral.contains(channel)
+    }
+
+    /// Whether a one-sided AU blends `channel` over the narrow midline band (the basis's
+    /// `narrow_midline` list of one-sided targets).
+    pub fn narrow_midline(&self, channel: &Channel) -> bool {
+        self.narrow_midline.contains(channel)
     }
 
     /// Every non-rigid channel with its (left, right) values, in a fixed order.
@@ -419,6 +441,18 @@ mod tests {
         assert_eq!(values("R6+12").get(&squint, Side::Left), 0.25);
         let right = target("faceunits/cheekSquintRight");
         assert!((values("R6+12").get(&right, Side::Right) - 1.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn only_one_sided_targets_may_blend_over_the_narrow_midline() {
+        let au = "[[au]]\ncode = 10\nchannels = [{ channel = \"target:faceunits/mouthUpperUpLeft\", side = \"left\", max = 1.0 }, { channel = \"shade:nasolabial\", max = 1.0 }]\n";
+        let symmetric = format!("narrow_midline = [\"shade:nasolabial\"]\n{au}");
+        assert!(matches!(AuBasis::from_toml(&symmetric), Err(RigError::NarrowMidline(_))));
+        let sided = format!("narrow_midline = [\"target:faceunits/mouthUpperUpLeft\"]\n{au}");
+        assert!(AuBasis::from_toml(&sided).is_ok());
+        let l10 = values("L10");
+        assert!(l10.narrow_midline(&target("faceunits/mouthUpperUpLeft")));
+        assert!(!l10.narrow_midline(&target("faceunits/mouthSmileLeft")));
     }
 
     #[test]
