@@ -353,14 +353,19 @@ pub fn set_stimuli(set_dir: &std::path::Path, design: &crate::study::StudyDesign
     Ok(stimuli)
 }
 
-/// With `[rating] side_by_side`, each label's stimuli fit on one screen.
-fn check_screens(stimuli: &[StudyStimulus]) -> Result<(), String> {
-    let mut per_label: std::collections::BTreeMap<&str, usize> = std::collections::BTreeMap::new();
+/// How many of `stimuli` each label (the manifest's `emotion`) has.
+pub fn stimuli_per_label<'a>(stimuli: impl IntoIterator<Item = &'a StudyStimulus>) -> std::collections::BTreeMap<&'a str, usize> {
+    let mut per_label = std::collections::BTreeMap::new();
     for s in stimuli {
         *per_label.entry(s.emotion.as_str()).or_default() += 1;
     }
+    per_label
+}
+
+/// With `[rating] side_by_side`, each label's stimuli fit on one screen.
+fn check_screens(stimuli: &[StudyStimulus]) -> Result<(), String> {
     let max = crate::study::screen::MAX_SIDE_BY_SIDE;
-    match per_label.into_iter().find(|(_, n)| *n > max) {
+    match stimuli_per_label(stimuli).into_iter().find(|(_, n)| *n > max) {
         Some((label, n)) => Err(format!("label \"{}\" has {n} stimuli, more than the {max} that [rating] side_by_side shows on one screen", crate::study::excerpt(label, 64))),
         None => Ok(()),
     }

@@ -14,7 +14,7 @@
 //! so a repeated save of the screen is recognised trial by trial.
 
 use super::assign::TrialKind;
-use super::task::{AnswerError, Submission};
+use super::task::{AnswerError, Submission, fail};
 
 /// Most stimuli one screen shows side by side (a label with more is refused when the study is
 /// made: `db::studies::set_stimuli`).
@@ -61,10 +61,6 @@ fn part_key(key: &str, position: i64) -> String {
     format!("{kept}-{position}")
 }
 
-fn fail(field: &str, message: String) -> AnswerError {
-    AnswerError { field: super::excerpt(field, 64), message: super::excerpt(&message, 200) }
-}
-
 /// One submission per trial of the screen `positions` (in that order). A screen of one trial
 /// keeps the submission as it came; a screen of several takes each answer field `name@position`
 /// to its trial and shares the response time, load failure and viewing counts (its videos play
@@ -79,9 +75,9 @@ pub fn split(submission: &Submission, positions: &[i64]) -> Result<Vec<(i64, Sub
         .map(|&p| (p, Submission { idempotency_key: part_key(&submission.idempotency_key, p), fields: Vec::new(), ..submission.clone() }))
         .collect();
     for (name, value) in &submission.fields {
-        let (measure, trial) = name.rsplit_once('@').ok_or_else(|| fail(name, format!("this page shows {} videos: name the answer's trial as {name}@<position>", positions.len())))?;
+        let (measure, trial) = name.rsplit_once('@').ok_or_else(|| fail(name.as_str(), format!("this page shows {} videos: name the answer's trial as {name}@<position>", positions.len())))?;
         let part = trial.parse::<i64>().ok().and_then(|p| parts.iter_mut().find(|(q, _)| *q == p));
-        let (_, part) = part.ok_or_else(|| fail(name, format!("\"{trial}\" is not a trial of this page (its trials: {positions:?})")))?;
+        let (_, part) = part.ok_or_else(|| fail(name.as_str(), format!("\"{trial}\" is not a trial of this page (its trials: {positions:?})")))?;
         part.fields.push((measure.to_string(), value.clone()));
     }
     Ok(parts)

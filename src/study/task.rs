@@ -49,7 +49,7 @@ pub struct AnswerError {
     pub message: String,
 }
 
-fn fail(field: impl Into<String>, message: impl Into<String>) -> AnswerError {
+pub(super) fn fail(field: impl Into<String>, message: impl Into<String>) -> AnswerError {
     AnswerError { field: super::excerpt(&field.into(), 64), message: super::excerpt(&message.into(), 200) }
 }
 

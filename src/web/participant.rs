@@ -6,7 +6,7 @@
 //! unanswered trial. Saves come as a plain form post (no script needed) or as JSON from the
 //! page script, which waits for the acknowledgement before moving on.
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::HashMap;
 
 use axum::extract::{Form, Path, Query, State};
 use axum::http::{HeaderValue, StatusCode, header};
@@ -84,9 +84,7 @@ fn trials_shown(study: &LoadedStudy) -> usize {
         false => study.design.arms.iter().map(|a| with_trials().filter(|s| s.arms.contains(&a.name)).count()).max().unwrap_or(0),
     };
     if study.design.labels_per_participant > 0 {
-        let mut per_label: BTreeMap<&str, usize> = BTreeMap::new();
-        with_trials().for_each(|s| *per_label.entry(s.emotion.as_str()).or_default() += 1);
-        let mut sizes: Vec<usize> = per_label.into_values().collect();
+        let mut sizes: Vec<usize> = crate::db::studies::stimuli_per_label(with_trials()).into_values().collect();
         sizes.sort_unstable_by(|a, b| b.cmp(a));
         return sizes.iter().take(study.design.labels_per_participant).sum::<usize>().min(all);
     }
@@ -398,8 +396,7 @@ async fn trial_page(State(app): State<AppState>, token: ParticipationToken) -> R
     let description = (design.task == TaskKind::Rating).then(|| stimulus_description(design, &stimulus.emotion)).flatten();
     let choices = label_choices(design);
     let items = items_context(design, None);
-    let screen = screen_context(&token, &study, &trials, trial.position);
-    let shown_together = screen.as_array().map_or(1, |parts| parts.len().max(1));
+    let together = shown_together(&study, &trials, trial.position);
     let context = json!({
         "token": token,
         "position": trial.position,
@@ -418,11 +415,11 @@ async fn trial_page(State(app): State<AppState>, token: ParticipationToken) -> R
         "coding_intensity": design.au_coding.intensity,
         "coding_side": design.au_coding.side,
         "items": items,
-        "screen": screen,
+        "screen": screen_context(&token, &study, &together),
         "done": done,
         "total": trials.len(),
         "percent": done * 100 / trials.len().max(1),
-        "progress_label": progress_label(done, shown_together, trials.len()),
+        "progress_label": progress_label(done, together.len().max(1), trials.len()),
     });
     app.render("trial.html", &merge(page(&study, "Face"), context))
 }
@@ -438,13 +435,18 @@ fn items_context(design: &crate::study::StudyDesign, position: Option<i64>) -> s
         .collect()
 }
 
-/// The trials shown side by side with the one at `position` (itself first), each with its video
-/// and items; `null` for a trial shown alone. The page never says which video is which.
-fn screen_context(token: &ParticipationToken, study: &LoadedStudy, trials: &[TrialRow], position: i64) -> serde_json::Value {
+/// The positions of the screen that starts at the trial at `position` (itself first): that
+/// trial alone unless the design shows a label's stimuli side by side.
+fn shown_together(study: &LoadedStudy, trials: &[TrialRow], position: i64) -> Vec<i64> {
     if !study.design.rating.side_by_side {
-        return serde_json::Value::Null;
+        return vec![position];
     }
-    let positions = screen::screen_at(&slots(study, trials), position, true).unwrap_or_default();
+    screen::screen_at(&slots(study, trials), position, true).unwrap_or_else(|_| vec![position])
+}
+
+/// The trials of a screen of several (`positions`), each with its video and items; `null` for a
+/// trial shown alone. The page never says which video is which.
+fn screen_context(token: &ParticipationToken, study: &LoadedStudy, positions: &[i64]) -> serde_json::Value {
     if positions.len() < 2 {
         return serde_json::Value::Null;
     }
@@ -484,7 +486,7 @@ async fn screen_positions(app: &AppState, token: &ParticipationToken, study: &Lo
     if !study.design.rating.side_by_side {
         return Ok(vec![position]);
     }
-    let p = app.db.participation(token.as_str()).await?.ok_or(WebError::NotFound)?;
+    let (p, _) = participation(app, token).await?;
     let trials = app.db.trials(p.id).await?;
     match screen::screen_at(&slots(study, &trials), position, true) {
         Ok(positions) => Ok(positions),
