@@ -651,11 +651,26 @@ impl<'a> FaceShader<'a> {
     }
 
     fn shade_mouth_part(&self, f: &Fragment, base: Vec3, specular: f32) -> Vec3 {
-        let rest = self.rest(f);
-        // Inside the mouth little light arrives: dim everything, and more with depth.
+        self.lit(f, f.normal, base, 0.2, specular, 40.0) * Self::inside_mouth(self.rest(f))
+    }
+
+    /// Inside the mouth little light arrives: everything dimmed, and more with depth.
+    fn inside_mouth(rest: Vec3) -> f32 {
         let depth = (1.50 - rest.z).max(0.0);
-        let colour = self.lit(f, f.normal, base, 0.2, specular, 40.0);
-        colour * 0.7 * (-depth * 6.0).exp()
+        0.7 * (-depth * 6.0).exp()
+    }
+
+    /// Teeth: enamel is translucent, so a tooth in the lip's shadow still glows with the light
+    /// it takes in below the shadow's edge and from the lips around it (about half the key light
+    /// reaches it).
+    fn shade_teeth(&self, f: &Fragment) -> Vec3 {
+        let rest = self.rest(f);
+        let reach = 0.45 + 0.55 * self.key_reach(f);
+        let surface = Surface { wrap: 0.2, specular: 0.5, shininess: 40.0 };
+        // The arch is a few flat facets: its normals turn half toward the viewer, so that a
+        // tooth reads as one rounded surface, not as a lit and a dark facet.
+        let normal = (f.normal + f.view_dir).normalize_or(f.normal);
+        self.lit_reached(f, normal, teeth_albedo(rest.x), surface, reach) * Self::inside_mouth(rest)
     }
 
     /// Lower lashes are sparse and short: mostly the lid's own tone, a little darker.
@@ -726,14 +741,7 @@ impl Shader for FaceShader<'_> {
         match Part::from_id(f.part) {
             Some(Part::Skin) | None => self.shade_skin(f),
             Some(part @ (Part::EyeLeft | Part::EyeRight)) => self.shade_eye(f, Self::eye_index(part)),
-            Some(Part::TeethUpper | Part::TeethLower) => {
-                // Gaps between teeth: narrow dark lines at each tooth's edge across the arch.
-                let x = self.rest(f).x.abs();
-                let widths = [0.0, 0.08, 0.14, 0.2, 0.26];
-                let gap = widths.iter().map(|&w| (-((x - w) / 0.004).powi(2)).exp()).fold(0.0, f32::max);
-                let enamel = Vec3::new(0.70, 0.66, 0.56) * (1.0 - 0.55 * gap);
-                self.shade_mouth_part(f, enamel, 0.5)
-            }
+            Some(Part::TeethUpper | Part::TeethLower) => self.shade_teeth(f),
             Some(Part::Tongue) => self.shade_mouth_part(f, Vec3::new(0.45, 0.12, 0.12), 0.3),
             Some(Part::LashesUpper) => self.identity.hair * 0.3 + Vec3::splat(0.012),
             Some(Part::LashesLower) => self.shade_skin_tone_lash(f),
@@ -747,6 +755,21 @@ impl Shader for FaceShader<'_> {
 }
 
 // ---- painted features (rest space, decimetres; x is the person's left) ----
+
+/// Where one tooth meets the next across the arch, from the midline out (the central incisor
+/// 8 mm wide, the others 6 mm).
+const TOOTH_EDGES: [f32; 6] = [0.0, 0.08, 0.14, 0.2, 0.26, 0.32];
+
+/// Enamel at `x` across the arch: off-white, each tooth rounded (a little darker toward its
+/// sides, where its surface turns away) with a narrow soft gap to the next.
+fn teeth_albedo(x: f32) -> Vec3 {
+    let x = x.abs();
+    let tooth = TOOTH_EDGES.windows(2).find(|w| x < w[1]).unwrap_or(&TOOTH_EDGES[4..]);
+    let across = ((x - tooth[0]) / (tooth[1] - tooth[0])).clamp(0.0, 1.0);
+    let rounded = 1.0 - 0.22 * (2.0 * across - 1.0).powi(4);
+    let gap = TOOTH_EDGES.iter().map(|&e| (-((x - e) / 0.0035).powi(2)).exp()).fold(0.0, f32::max);
+    Vec3::new(0.84, 0.80, 0.70) * rounded * (1.0 - 0.4 * gap)
+}
 
 /// `x^e` for a specular lobe: a whole exponent up to 64 (the skin's 18, the mouth's 40) by
 /// repeated multiplication, within 10⁻⁵ of `powf` relative to the value (far below a colour
