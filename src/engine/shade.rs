@@ -42,6 +42,38 @@ fn regions(model: &FaceModel) -> &'static Regions {
     })
 }
 
+/// For every lash vertex (upper and lower cards, both eyes; indexed from the first lash
+/// vertex), the skin vertex nearest to it at rest: the lid skin the lashes lie on, whose normal,
+/// light and paint the skin between the lash clumps takes.
+fn skin_behind_lashes(model: &FaceModel) -> &'static LashSkin {
+    static BEHIND: OnceLock<LashSkin> = OnceLock::new();
+    BEHIND.get_or_init(|| {
+        let (upper, lower) = (&model.part(Part::LashesUpper).vertices, &model.part(Part::LashesLower).vertices);
+        let (first, last) = (upper.start.min(lower.start), upper.end.max(lower.end));
+        let near_eyes: Vec<u32> = model.part(Part::Skin).vertices.clone().filter(|&v| (model.rest[v as usize].y - REST_EYE_CENTRE.y).abs() < 0.3).collect();
+        let nearest = (first..last)
+            .map(|lash| {
+                let p = model.rest[lash as usize];
+                let distance = |v: u32| model.rest[v as usize].distance_squared(p);
+                near_eyes.iter().copied().min_by(|&a, &b| distance(a).total_cmp(&distance(b)).then(a.cmp(&b))).unwrap_or(0)
+            })
+            .collect();
+        LashSkin { first, nearest }
+    })
+}
+
+struct LashSkin {
+    first: u32,
+    nearest: Vec<u32>,
+}
+
+impl LashSkin {
+    /// The skin vertices behind the corners of a lash fragment.
+    fn behind(&self, f: &Fragment) -> [usize; 3] {
+        f.vertex.map(|v| self.nearest.get(v.saturating_sub(self.first) as usize).copied().unwrap_or(0) as usize)
+    }
+}
+
 /// Depth of the head as seen from the key light, for cast shadows (the nose on the cheek, the
 /// brow ridge on the eyes, the chin on the neck).
 pub struct ShadowMap {
@@ -151,6 +183,9 @@ struct SkinVertex {
 
 impl SkinVertex {
     const FIELDS: usize = 12;
+    /// Where [`Self::to_array`] puts the fields read one by one.
+    const MOTTLE: usize = 0;
+    const PERIORBITAL: usize = 11;
 
     fn to_array(self) -> [f32; Self::FIELDS] {
         [
@@ -673,10 +708,49 @@ impl<'a> FaceShader<'a> {
         self.lit_reached(f, normal, teeth_albedo(rest.x), surface, reach) * Self::inside_mouth(rest)
     }
 
-    /// Lower lashes are sparse and short: mostly the lid's own tone, a little darker.
-    fn shade_skin_tone_lash(&self, f: &Fragment) -> Vec3 {
-        let albedo = self.identity.skin.lerp(self.identity.hair, 0.12) * 0.85;
-        self.lit(f, f.normal, albedo, 0.3, 0.0, 1.0)
+    /// Lashes: the lash cards are drawn as clumps of lashes, dense at the lid margin and
+    /// tapering to points toward their tips, short at the inner corner and long from the middle
+    /// of the lid outward; between the clumps the lid's skin behind them shows. Clumps narrower than
+    /// a pixel blend into their mean cover instead of flickering.
+    fn shade_lashes(&self, f: &Fragment, lashes: &Lashes) -> Vec3 {
+        let rest = self.rest(f);
+        let m = Vec3::new(rest.x.abs(), rest.y, rest.z);
+        let from_eye = m - REST_EYE_CENTRE;
+        let out = (from_eye.length() - REST_EYE_RADIUS).max(0.0);
+        // 0 at the inner corner, 1 at the outer, by the angle around the eye.
+        let around = (1.0 - from_eye.y.atan2(from_eye.x).abs() / std::f32::consts::PI).clamp(0.0, 1.0);
+        let at = around * lashes.clumps;
+        let clump = at.floor();
+        let jitter = 0.75 + 0.25 * hash(clump as i32, lashes.seed, (rest.x > 0.0) as i32);
+        let length = lashes.length * (0.45 + 0.55 * smoothstep(0.0, 0.5, around)) * (1.0 - 0.3 * smoothstep(0.85, 1.0, around)) * jitter;
+        let along = out / length;
+        let pixel = 3.1 / self.backdrop.len().max(1) as f32;
+        let spacing = (lashes.arc / lashes.clumps).max(1e-4);
+        let soft = (pixel / spacing).clamp(0.05, 0.5);
+        let width = (lashes.root_width * (1.0 - along)).max(0.0);
+        let across = (at - clump - 0.5).abs();
+        let clumped = width.min(1.0) * (1.0 - smoothstep(0.5 * width - soft, 0.5 * width + soft, across));
+        let mean = width.min(1.0);
+        let seen = clumped + (mean - clumped) * smoothstep(0.25, 0.5, soft);
+        let cover = lashes.density * seen.max(1.0 - smoothstep(0.4 * lashes.band, lashes.band, out));
+        let skin = self.lid_behind_lashes(f);
+        let lash = self.identity.hair * 0.3 + Vec3::splat(0.012);
+        skin.lerp(lash, cover.clamp(0.0, 1.0))
+    }
+
+    /// The lid skin behind a lash fragment, shaded with the normal, light and paint of the
+    /// skin vertices it lies on (so that the skin between the clumps matches the lid around).
+    fn lid_behind_lashes(&self, f: &Fragment) -> Vec3 {
+        let behind = skin_behind_lashes(self.model).behind(f);
+        let w = [f.barycentric.x, f.barycentric.y, f.barycentric.z];
+        let mix = |value: &dyn Fn(usize) -> f32| (0..3).map(|k| w[k] * value(behind[k])).sum::<f32>();
+        let normal = (0..3).fold(Vec3::ZERO, |n, k| n + self.posed.normals[behind[k]] * w[k]).normalize_or(f.normal);
+        let reach = mix(&|v| self.key_light[v]);
+        let paint = |field: usize| mix(&|v| self.maps.vertices[v][field]);
+        let mut albedo = self.identity.skin * paint(SkinVertex::MOTTLE);
+        albedo = albedo.lerp(albedo * Vec3::new(0.84, 0.8, 0.84), 0.6 * paint(SkinVertex::PERIORBITAL));
+        let surface = Surface { wrap: 0.35, specular: 0.16, shininess: 16.0 };
+        self.lit_reached(f, normal, albedo, surface, reach)
     }
 
     /// The eye sockets' own shading for the eyeball parts depends on which eye it is.
@@ -743,8 +817,8 @@ impl Shader for FaceShader<'_> {
             Some(part @ (Part::EyeLeft | Part::EyeRight)) => self.shade_eye(f, Self::eye_index(part)),
             Some(Part::TeethUpper | Part::TeethLower) => self.shade_teeth(f),
             Some(Part::Tongue) => self.shade_mouth_part(f, Vec3::new(0.45, 0.12, 0.12), 0.3),
-            Some(Part::LashesUpper) => self.identity.hair * 0.3 + Vec3::splat(0.012),
-            Some(Part::LashesLower) => self.shade_skin_tone_lash(f),
+            Some(Part::LashesUpper) => self.shade_lashes(f, &UPPER_LASHES),
+            Some(Part::LashesLower) => self.shade_lashes(f, &LOWER_LASHES),
         }
     }
 
@@ -755,6 +829,24 @@ impl Shader for FaceShader<'_> {
 }
 
 // ---- painted features (rest space, decimetres; x is the person's left) ----
+
+/// How a lid's lashes are drawn on its lash card (rest space, decimetres).
+struct Lashes {
+    /// Clumps along the lid, and the lid's arc length they share.
+    clumps: f32,
+    arc: f32,
+    /// The longest lashes' length out from the eyeball, and the width of the band along the lid
+    /// margin where the lashes' roots cover the card whole.
+    length: f32,
+    band: f32,
+    /// A clump's width at its root (share of the spacing), and how dark the lashes cover.
+    root_width: f32,
+    density: f32,
+    seed: i32,
+}
+
+const UPPER_LASHES: Lashes = Lashes { clumps: 22.0, arc: 0.42, length: 0.085, band: 0.016, root_width: 2.6, density: 1.0, seed: 11 };
+const LOWER_LASHES: Lashes = Lashes { clumps: 18.0, arc: 0.36, length: 0.05, band: 0.008, root_width: 0.7, density: 0.55, seed: 29 };
 
 /// Where one tooth meets the next across the arch, from the midline out (the central incisor
 /// 8 mm wide, the others 6 mm).
