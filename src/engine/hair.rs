@@ -1,6 +1,8 @@
-//! Hair as geometry: strands grown from the scalp of the face model and drawn as thin, tapered
-//! cards (ribbons), generated from the identity's hair data (style, texture, parting,
-//! hairline); no third-party hair assets.
+//! Hair as geometry: strands grown from the scalp of the face model and drawn as thin cards
+//! (ribbons) narrowing to a point over their last part (each strand from its own share of its
+//! length, so tips make a soft, uneven edge), generated from the identity's hair data (style,
+//! texture, parting, hairline); no third-party hair assets. Curly and coiled hair grows more,
+//! narrower strands than straight hair; neighbouring strands share a lock's tone.
 //!
 //! In: the face model, the identity and its neutral head. Out: [`HairModel`] (cached per
 //! person): card vertices in the neutral head's space with the strand direction (tangent) and
@@ -129,7 +131,15 @@ fn style_shape(style: HairStyle, texture: HairTexture) -> StyleShape {
     let longest = shape.length_top.max(shape.length_back) * 1.15;
     let (radius, period) = curl(texture);
     let wanted = if radius > 0.0 { (longest / period * POINTS_PER_TURN).ceil() as usize } else { 0 };
-    StyleShape { segments: wanted.clamp(shape.segments, 2 * shape.segments), ..shape }
+    // Curls and coils are drawn as more, narrower strands: a card as wide as the curl turning
+    // round it reads as a twisting paper ribbon, and coils' short segments as confetti.
+    let (narrower, denser) = match texture {
+        HairTexture::Curly => (0.55, 2.0),
+        HairTexture::Coiled => (0.55, 1.5),
+        HairTexture::Wavy => (0.75, 1.3),
+        HairTexture::Straight => (1.0, 1.0),
+    };
+    StyleShape { segments: wanted.clamp(shape.segments, 2 * shape.segments), width: shape.width * narrower, density: shape.density * denser, ..shape }
 }
 
 fn style_shape_uncurled(style: HairStyle, texture: HairTexture) -> StyleShape {
@@ -313,6 +323,58 @@ fn keep_clear_of_face_and_shoulders(mut p: Vec3, root_y: f32, head: &HeadMap) ->
 /// Fibres drawn side by side across one card (for greying).
 pub const FIBRES_PER_CARD: f32 = 9.0;
 
+/// One card's shape: half-width at the root, where (share of the drawn strand) it starts
+/// narrowing to its tip, and whether it lies along the scalp near the head.
+#[derive(Clone, Copy)]
+struct Card {
+    width: f32,
+    tip_from: f32,
+    on_head: bool,
+}
+
+impl Card {
+    /// Half-width at `along` (share of the drawn strand, 0 at the root): a little narrower
+    /// toward the end, then narrowing to a fine point over the tip, so that the ends of many
+    /// strands read as a soft, uneven edge rather than square cuts.
+    fn half_width(&self, along: f32) -> f32 {
+        self.width * (1.0 - 0.2 * along) * (1.0 - 0.94 * smooth(self.tip_from, 1.0, along))
+    }
+}
+
+/// Where strand `n` starts narrowing to its tip (share of its length): each its own, so the
+/// tips of neighbouring strands do not line up.
+fn tip_from(n: u32) -> f32 {
+    0.4 + 0.3 * hash01(n, 23, 4)
+}
+
+/// Share of the drawn length at each point of a strand (0 at the root, 1 where it ends; its
+/// collapsed points, if it ended early, at 1).
+fn drawn_share(points: &[Vec3]) -> Vec<f32> {
+    let mut along = Vec::with_capacity(points.len());
+    let mut travelled = 0.0;
+    let mut previous = points.first().copied().unwrap_or(Vec3::ZERO);
+    for &p in points {
+        travelled += (p - previous).length();
+        along.push(travelled);
+        previous = p;
+    }
+    let total = travelled.max(1e-6);
+    along.iter_mut().for_each(|a| *a /= total);
+    along
+}
+
+/// Locks of an edge of about [`LOCK_SIZE`] decimetres on the scalp: the strands of one lock
+/// share most of their tone (neighbouring strands clump), with a little of their own.
+const LOCK_SIZE: f32 = 0.09;
+
+/// The brightness factor of the strand `n` rooted at `rest` (base mesh): its lock's tone with
+/// a little of its own, 0.91..1.09 (hard strand-to-strand differences read as stripes).
+fn lock_tone(rest: Vec3, n: u32) -> f32 {
+    let cell = (rest / LOCK_SIZE).floor();
+    let lock = hash01(cell.x as i32 as u32, cell.y as i32 as u32 ^ 0x5bd1_e995, cell.z as i32 as u32);
+    0.91 + 0.12 * lock + 0.06 * hash01(n, 8, 2)
+}
+
 /// The share of white fibres in strand `n` of a person whose hair is `grey` (0..1) grey:
 /// about `grey`, varying a little from strand to strand.
 fn greying(grey: f32, n: u32) -> f32 {
@@ -392,8 +454,9 @@ impl HairModel {
         };
         for (n, root) in roots.iter().enumerate() {
             let Some(points) = grow(root, n as u32, identity, &shape, &hair.head) else { continue };
-            hair.add_card(&points, root.vertex, shape.width * (0.7 + 0.6 * hash01(n as u32, 7, 1)), true);
-            hair.strand_tone.push(0.8 + 0.4 * hash01(n as u32, 8, 2));
+            let card = Card { width: shape.width * (0.7 + 0.6 * hash01(n as u32, 7, 1)), tip_from: tip_from(n as u32), on_head: true };
+            hair.add_card(&points, root.vertex, card);
+            hair.strand_tone.push(lock_tone(root.rest, n as u32));
             hair.strand_grey.push(greying(identity.hair_grey, n as u32));
         }
         if let (HairStyle::Bun, Some(centre)) = (identity.hair_style, shape.gather) {
@@ -405,12 +468,14 @@ impl HairModel {
         hair
     }
 
-    /// Appends one strand's card: two vertices per point, tapering to the tip. A card turns its
-    /// face to the camera, except that near the `head` it lies along the scalp (never across
-    /// it, into the head).
-    fn add_card(&mut self, points: &[Vec3], root_vertex: u32, width: f32, on_head: bool) {
+    /// Appends one strand's card: two vertices per point, narrowing to a point at the tip of
+    /// the strand as drawn (a strand that ended early, its remaining points collapsed, tapers
+    /// to where it ends). A card turns its face to the camera, except that near the `head` it
+    /// lies along the scalp (never across it, into the head).
+    fn add_card(&mut self, points: &[Vec3], root_vertex: u32, card: Card) {
         let base = self.positions.len() as u32;
         let last = points.len() - 1;
+        let along = drawn_share(points);
         let mut previous = Vec3::NEG_Y;
         for (k, &p) in points.iter().enumerate() {
             // Along the strand: forward, or back at the tip, or as before where the strand ended
@@ -420,13 +485,13 @@ impl HairModel {
             let tangent = forward.try_normalize().or(back.try_normalize()).unwrap_or(previous);
             previous = tangent;
             let t = k as f32 / last as f32;
-            let row = CardRow { point: p, half: width * (1.0 - 0.5 * t * t), on_head };
+            let row = CardRow { point: p, half: card.half_width(along[k]), on_head: card.on_head };
             let across = self.across(row, tangent, VIEW_FROM);
             self.rows.push(row);
             for (s, u) in [(-1.0, 0.0), (1.0, 1.0)] {
                 self.positions.push(p + across * s);
                 self.tangents.push(tangent);
-                self.uvs.push(Vec2::new(u, t));
+                self.uvs.push(Vec2::new(u, along[k]));
                 self.root_vertex.push(root_vertex);
                 self.root_follow.push((1.0 - t * 2.0).max(0.0));
             }
@@ -478,8 +543,8 @@ impl HairModel {
                     ball + (u * a.cos() + v * a.sin()) * r
                 })
                 .collect();
-            self.add_card(&points, root_vertex, shape.width * 1.2, false);
-            self.strand_tone.push(0.8 + 0.4 * hash01(n, 15, 9));
+            self.add_card(&points, root_vertex, Card { width: shape.width * 1.2, tip_from: tip_from(n), on_head: false });
+            self.strand_tone.push(lock_tone(ball, n));
             self.strand_grey.push(greying(grey, n));
         }
     }
@@ -639,6 +704,16 @@ fn sample_roots(model: &FaceModel, identity: &Identity, neutral: &[Vec3], shape:
     roots
 }
 
+/// Where (`x`, base mesh) the hair parts over the front of the head, if it does.
+pub fn parting_x(parting: Parting) -> Option<f32> {
+    match parting {
+        Parting::Left => Some(0.22),
+        Parting::Right => Some(-0.22),
+        Parting::Centre => Some(0.0),
+        Parting::None => None,
+    }
+}
+
 /// The direction hair is combed at a root (tangent to the scalp).
 fn comb_direction(root: &Root, parting: Parting, gather: Option<Vec3>) -> Vec3 {
     let n = root.normal;
@@ -646,11 +721,7 @@ fn comb_direction(root: &Root, parting: Parting, gather: Option<Vec3>) -> Vec3 {
     let wanted = if let Some(point) = gather {
         point - root.position
     } else {
-        let parting_x = match parting {
-            Parting::Left => 0.22,
-            Parting::Right => -0.22,
-            Parting::Centre | Parting::None => 0.0,
-        };
+        let parting_x = parting_x(parting).unwrap_or(0.0);
         let front = smooth(0.0, 0.7, r.z);
         let sideways = if parting == Parting::None { 0.15 * r.x.signum() } else { (r.x - parting_x).signum() };
         let back = if parting == Parting::None { 1.0 } else { 0.35 };
@@ -853,6 +924,53 @@ mod tests {
         identity.hair_grey = 0.0;
         let dark = HairModel::new(model, &identity, &posed.neutral);
         assert!((0..dark.strand_grey.len()).all(|s| dark.fibre_grey(s, 0.5) == 0.0));
+    }
+
+    /// Every card ends in a fine point (no square cut), and neighbouring strands start
+    /// narrowing at different shares of their length (the tips do not line up).
+    #[test]
+    fn cards_narrow_to_a_point_from_uneven_shares_of_their_length() {
+        let model = FaceModel::embedded();
+        let (identity, posed) = neutral("wf1");
+        let hair = HairModel::new(model, &identity, &posed.neutral);
+        let rows_per_card = hair.triangles_per_strand as usize / 2 + 1;
+        let cards: Vec<&[CardRow]> = hair.rows.chunks_exact(rows_per_card).collect();
+        assert!(cards.len() > 1000, "{} cards", cards.len());
+        for card in &cards {
+            let (root, tip) = (card[0].half, card[rows_per_card - 1].half);
+            assert!(tip < 0.1 * root, "a card ends {tip} wide, {root} at its root");
+        }
+        let starts: Vec<f32> = (0..200).map(tip_from).collect();
+        let (low, high) = starts.iter().fold((1.0f32, 0.0f32), |(l, h), &t| (l.min(t), h.max(t)));
+        assert!(high - low > 0.25, "tips start narrowing between {low} and {high}");
+        let along = drawn_share(&[Vec3::ZERO, Vec3::X, Vec3::X * 3.0, Vec3::X * 3.0]);
+        assert_eq!(along, vec![0.0, 1.0 / 3.0, 1.0, 1.0], "a strand that ended early tapers to where it ends");
+    }
+
+    /// Curly and coiled hair is drawn as more, narrower strands than straight hair of the same
+    /// style (wide cards twisting round a curl read as paper ribbons).
+    #[test]
+    fn curls_grow_more_and_narrower_strands() {
+        for style in [HairStyle::Short, HairStyle::Medium, HairStyle::Long] {
+            let straight = style_shape(style, HairTexture::Straight);
+            let curly = style_shape(style, HairTexture::Curly);
+            assert!(curly.width < 0.6 * straight.width && curly.density > 1.5 * straight.density, "{style:?}");
+        }
+        let coiled = style_shape(HairStyle::Medium, HairTexture::Coiled);
+        assert!(coiled.width < 0.01 && coiled.density > 1000.0);
+    }
+
+    /// Strands rooted close together share most of their tone (they clump into locks);
+    /// tones stay within a narrow range (hard differences read as stripes).
+    #[test]
+    fn neighbouring_strands_share_their_locks_tone() {
+        let root = Vec3::new(0.31, 8.2, 0.52);
+        let near = (0..50).map(|n| lock_tone(root + Vec3::splat(0.001 * (n % 5) as f32), n)).collect::<Vec<_>>();
+        let spread = |t: &[f32]| t.iter().copied().fold(f32::MIN, f32::max) - t.iter().copied().fold(f32::MAX, f32::min);
+        assert!(spread(&near) <= 0.061, "one lock's tones spread {}", spread(&near));
+        let far: Vec<f32> = (0..50).map(|n| lock_tone(Vec3::new(0.1 * n as f32, 8.2, 0.5), 0)).collect();
+        assert!(spread(&far) > 0.08, "locks' tones spread only {}", spread(&far));
+        assert!(far.iter().chain(&near).all(|t| (0.9..=1.1).contains(t)));
     }
 
     #[test]

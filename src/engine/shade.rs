@@ -268,7 +268,7 @@ impl SkinMaps {
                     cheek: blob(Vec2::new(p.x.abs(), p.y), Vec2::new(0.38, 6.95), Vec2::new(0.14, 0.12)),
                     oily: blob(Vec2::new(p.x, p.y), Vec2::new(0.0, 7.3), Vec2::new(0.12, 0.7)),
                     beard: beard_mask(p) * identity.stubble,
-                    hair: hair_mask(p, identity.hairline) * (1.0 - regions.ears[i]),
+                    hair: hair_mask(p, identity.hairline).max(SCALP_FRINGE_SHARE * hair_mask(p, identity.hairline - SCALP_FRINGE)) * (1.0 - regions.ears[i]),
                     lips: regions.lips[i],
                     inside_mouth: regions.inside_mouth[i],
                     margin,
@@ -503,8 +503,7 @@ impl<'a> FaceShader<'a> {
         }
         let hair = painted.hair;
         if hair > 0.0 {
-            let hair_albedo = identity.hair * (0.45 + 0.3 * strands(rest));
-            albedo = albedo.lerp(hair_albedo, hair);
+            albedo = albedo.lerp(scalp_hair(identity, rest, albedo), hair);
         }
         let brow = brow_mask(rest);
         if brow != 0.0 {
@@ -592,15 +591,16 @@ impl<'a> FaceShader<'a> {
         let strand = (f.triangle / model.triangles_per_strand) as usize;
         let tone = model.strand_tone.get(strand).copied().unwrap_or(1.0);
         // Greying: white fibres among pigmented ones, which themselves lose some colour. A fibre
-        // is far thinner than a pixel, so a white one is seen mixed with its neighbours: half its
-        // own whiteness, half its strand's share of white (pure white fibres on dark hair read as
-        // scribbles).
+        // is far thinner than a pixel, so a white one is seen mixed with its neighbours: a third
+        // of its own whiteness, the rest its strand's share of white (pure white fibres on dark
+        // hair read as scribbles, half-white ones as hard stripes).
         let share = model.strand_grey.get(strand).copied().unwrap_or(0.0);
-        let grey = 0.5 * model.fibre_grey(strand, f.uv.x) + 0.5 * share;
-        let faded = self.identity.hair.lerp(Vec3::splat(self.identity.hair.dot(Vec3::splat(1.0 / 3.0))), 0.4 * self.identity.hair_grey);
-        let pigment = faded.lerp(Vec3::new(0.4, 0.4, 0.38), grey);
-        let fibres = 0.72 + 0.28 * value_noise(Vec3::new(f.uv.x * FIBRES_PER_CARD, f.uv.y * 3.0, strand as f32 * 1.618));
-        let rooted = 0.65 + 0.35 * smoothstep(0.0, 0.35, f.uv.y);
+        let grey = 0.35 * model.fibre_grey(strand, f.uv.x) + 0.65 * share;
+        let pigment = hair_pigment(self.identity, grey);
+        // Fine, low-contrast variation across the card (strong contrast between neighbouring
+        // fibres and dark roots read as hard stripes, a card as a plank).
+        let fibres = 0.85 + 0.15 * value_noise(Vec3::new(f.uv.x * FIBRE_NOISE_ACROSS, f.uv.y * 4.0, strand as f32 * 1.618));
+        let rooted = 0.8 + 0.2 * smoothstep(0.0, 0.3, f.uv.y);
         let albedo = pigment * tone * fibres * rooted;
         let tangent = f.normal;
         let view = f.view_dir;
@@ -612,7 +612,9 @@ impl<'a> FaceShader<'a> {
         for (n, light) in lights.iter().enumerate() {
             let reach = if n == 0 { shadow_floor + (1.0 - shadow_floor) * key_reaches } else { 1.0 };
             let t_l = tangent.dot(light.direction);
-            let diffuse = (1.0 - t_l * t_l).max(0.0).sqrt() * 0.75;
+            // Light scattered between fibres evens the diffuse term out a little: cards at
+            // slightly different angles differ less in tone (they read as planks otherwise).
+            let diffuse = 0.3 + 0.45 * (1.0 - t_l * t_l).max(0.0).sqrt();
             colour += albedo * light.colour * diffuse * reach;
             if n == 0 {
                 let half = (light.direction + view).normalize();
@@ -922,6 +924,12 @@ fn brow_mask(rest: Vec3) -> f32 {
     (body * ends * (0.75 + 0.35 * strand)).clamp(0.0, 1.0)
 }
 
+/// The painted scalp hair reaches this far (decimetres) below the hairline the roots grow
+/// from, at this share of full cover: strands lying over the hairline leave no slivers of bare
+/// forehead between them and the hair, and the hairline is soft.
+const SCALP_FRINGE: f32 = 0.05;
+const SCALP_FRINGE_SHARE: f32 = 0.85;
+
 /// Scalp hair (painted under the hair cards): see [`super::hair::scalp_mask`].
 fn hair_mask(rest: Vec3, raise: f32) -> f32 {
     super::hair::scalp_mask(rest, raise, value_noise(rest * 90.0))
@@ -939,9 +947,40 @@ fn beard_mask(rest: Vec3) -> f32 {
     upper_lip.max(jaw)
 }
 
-/// Fine streaks along the hair's flow (back and down).
-fn strands(rest: Vec3) -> f32 {
-    value_noise(Vec3::new(rest.x * 220.0, rest.y * 12.0, rest.z * 30.0))
+/// Cells of fibre noise across one hair card (finer than [`FIBRES_PER_CARD`], the fibres
+/// that grey one by one).
+const FIBRE_NOISE_ACROSS: f32 = 1.5 * FIBRES_PER_CARD;
+
+/// The pigment of `identity`'s hair with `grey` (0..1) of it white: the pigmented fibres of
+/// greying hair lose some of their colour too.
+fn hair_pigment(identity: &Identity, grey: f32) -> Vec3 {
+    let faded = identity.hair.lerp(Vec3::splat(identity.hair.dot(Vec3::splat(1.0 / 3.0))), 0.4 * identity.hair_grey);
+    faded.lerp(Vec3::new(0.4, 0.4, 0.38), grey)
+}
+
+/// Half-width (decimetres, base mesh) of the line of scalp where the hair parts.
+const PARTING_HALF_WIDTH: f32 = 0.006;
+
+/// The scalp where hair grows, painted as the hair seen between and under the cards: its
+/// colour (greying included) a little darker, in fine streaks along the comb direction
+/// (sideways from the parting over the front of the head, down behind), and a thin line of
+/// the scalp's own `skin` where the hair parts. Gaps between cards show hair, not skin.
+fn scalp_hair(identity: &Identity, rest: Vec3, skin: Vec3) -> Vec3 {
+    let parting = super::hair::parting_x(identity.parting);
+    // How far the hair over this point is combed sideways (from the parting) rather than back.
+    let sideways = if parting.is_some() { smoothstep(0.0, 0.7, rest.z) } else { 0.0 };
+    let across = |back: f32, side: f32| back + (side - back) * sideways;
+    let q = Vec3::new(rest.x * across(220.0, 12.0), rest.y * across(12.0, 90.0), rest.z * across(30.0, 220.0));
+    let hair = hair_pigment(identity, identity.hair_grey) * (0.55 + 0.3 * value_noise(q));
+    let curled = matches!(identity.hair_texture, HairTexture::Curly | HairTexture::Coiled);
+    let Some(x) = parting.filter(|_| !curled) else { return hair };
+    let line = (1.0 - smoothstep(0.5 * PARTING_HALF_WIDTH, PARTING_HALF_WIDTH, (rest.x - x).abs())) * smoothstep(0.2, 0.6, rest.z);
+    if line == 0.0 {
+        return hair;
+    }
+    // The parting runs through the hair, not beyond the roots into the painted fringe.
+    let rooted = super::hair::scalp_mask(rest, identity.hairline, 0.5);
+    hair.lerp(skin * 0.85, 0.75 * line * rooted)
 }
 
 // ---- furrows and bulges: height fields in mirrored rest space (x ≥ 0) ----
@@ -1187,6 +1226,25 @@ mod tests {
         assert!((front - 0.04).abs() < 1e-5, "{front}");
         assert!((back - 0.22).abs() < 1e-5, "{back}");
         assert!((side - 0.13).abs() < 1e-5, "{side}");
+    }
+
+    /// The scalp under grey hair is painted grey (not in the pigment alone, a dark hole at the
+    /// parting), and straight hair shows a thin line of scalp where it parts, curls none.
+    #[test]
+    fn the_painted_scalp_is_the_hairs_colour_with_a_thin_parting() {
+        let table = crate::engine::identity::IdentityTable::built_in();
+        let grey = table.get("hlf2").unwrap().clone();
+        let top = Vec3::new(0.4, 8.3, 0.6);
+        let skin = Vec3::new(0.8, 0.6, 0.5);
+        let luma = |c: Vec3| c.dot(Vec3::splat(1.0 / 3.0));
+        assert!(luma(scalp_hair(&grey, top, skin)) > 0.5 * luma(hair_pigment(&grey, grey.hair_grey)));
+        assert!(luma(hair_pigment(&grey, grey.hair_grey)) > 1.3 * luma(grey.hair));
+        let mut straight = table.get("wf1").unwrap().clone();
+        let parting = Vec3::new(0.0, 8.3, 0.8);
+        let beside = parting + Vec3::X * 3.0 * PARTING_HALF_WIDTH;
+        assert!(scalp_hair(&straight, parting, skin).distance(skin * 0.85) < 0.5 * scalp_hair(&straight, beside, skin).distance(skin * 0.85));
+        straight.hair_texture = HairTexture::Curly;
+        assert!(scalp_hair(&straight, parting, skin).distance(skin * 0.85) > 0.3);
     }
 
     #[test]
