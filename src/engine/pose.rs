@@ -187,11 +187,12 @@ pub fn pose(model: &FaceModel, prepared: &PreparedIdentity, values: &ChannelValu
             }
             Channel::Pull(name) => {
                 let deformer = Deformer::named(name).ok_or_else(|| AssetError::Missing(format!("deformer {name}")))?;
-                // The lashes ride on the lids a pull may move.
-                for part in [Part::Skin, Part::LashesUpper, Part::LashesLower] {
-                    let range = model.part(part).vertices.clone();
-                    let range = range.start as usize..range.end as usize;
-                    deformer.apply(&model.rest[range.clone()], &mut positions[range], left, right);
+                let skin = part_range(model, Part::Skin);
+                deformer.apply(&model.rest[skin.clone()], &mut positions[skin], left, right);
+                // The lashes ride on the lids a pull may move: each lash vertex moves as its
+                // root on the lid margin does, so a lash keeps its shape as the lid lifts.
+                for (part, roots) in [Part::LashesUpper, Part::LashesLower].into_iter().zip(lash_roots(model)) {
+                    deformer.apply(roots, &mut positions[part_range(model, part)], left, right);
                 }
             }
             Channel::Shade(name) => {
@@ -208,6 +209,24 @@ pub fn pose(model: &FaceModel, prepared: &PreparedIdentity, values: &ChannelValu
     turn_head(head_weights(model)?, anchor + HEAD_PIVOT, &mut positions, &mut eyes, values);
     let normals = vertex_normals(model, &positions);
     Ok(Posed { positions, normals, neutral: Arc::clone(neutral), eyes, anchor, appearance })
+}
+
+fn part_range(model: &FaceModel, part: Part) -> std::ops::Range<usize> {
+    let range = model.part(part).vertices.clone();
+    range.start as usize..range.end as usize
+}
+
+/// For the upper and lower lashes, each vertex's root: the rest position of the nearest skin
+/// vertex (on the lid margin). A pull moves a lash vertex by its weight at the root, not at the
+/// lash itself, which stands up to 1 cm in front of the lid where the pull is weaker; weighing
+/// the lash by its own position bent the upper lashes back into the lid as AU5 raised it.
+fn lash_roots(model: &FaceModel) -> &'static [Vec<Vec3>; 2] {
+    static ROOTS: OnceLock<[Vec<Vec3>; 2]> = OnceLock::new();
+    ROOTS.get_or_init(|| {
+        let skin = &model.rest[part_range(model, Part::Skin)];
+        let root = |p: &Vec3| skin.iter().copied().min_by(|a, b| a.distance_squared(*p).total_cmp(&b.distance_squared(*p))).unwrap_or(*p);
+        [Part::LashesUpper, Part::LashesLower].map(|part| model.rest[part_range(model, part)].iter().map(root).collect())
+    })
 }
 
 /// A local skin pull (Waters-style): rest-space centre on the person's left, mirrored right.
@@ -493,6 +512,28 @@ mod tests {
                     }
                 }
             }
+        }
+    }
+
+    /// AU5 at E on the eight evaluation people: the upper lid margin (the skin the upper lashes
+    /// grow from) retracts at least 3 mm on average, and the lashes go up with it (the old basis
+    /// lifted the skin above the lid but left the margin at the top of the iris).
+    #[test]
+    fn au5_retracts_the_upper_lid_margin_with_its_lashes() {
+        let model = FaceModel::embedded();
+        let skin = &model.rest[part_range(model, Part::Skin)];
+        let nearest = |p: Vec3| (0..skin.len()).min_by(|&a, &b| skin[a].distance_squared(p).total_cmp(&skin[b].distance_squared(p))).unwrap();
+        let lashes = part_range(model, Part::LashesUpper);
+        let roots: Vec<(usize, usize)> = lashes.map(|i| (i, nearest(model.rest[i]))).collect();
+        let mean_rise = |posed: &Posed, neutral: &[Vec3], of: &dyn Fn(&(usize, usize)) -> usize| {
+            roots.iter().map(|pair| posed.positions[of(pair)].y - neutral[of(pair)].y).sum::<f32>() / roots.len() as f32
+        };
+        for identity in ["wm1", "wm2", "bm1", "bm2", "wf1", "wf2", "bf1", "bf2"] {
+            let (posed, prepared) = posed_on(identity, "5");
+            let margin = mean_rise(&posed, &prepared.neutral, &|&(_, root)| root);
+            let lash = mean_rise(&posed, &prepared.neutral, &|&(lash, _)| lash);
+            assert!(margin > 0.03, "{identity}: the upper lid margin rose only {margin} dm");
+            assert!(lash > 0.8 * margin, "{identity}: the lashes rose {lash} dm, the lid margin {margin} dm");
         }
     }
 

@@ -7,7 +7,8 @@
 //!
 //! Appearance channels (`shade:NAME` in the AU basis), each a furrow/bulge height field:
 //! `forehead_inner`, `forehead_outer`, `glabella_vertical`, `glabella_horizontal`, `crows_feet`,
-//! `lower_lid_bulge`, `nose_wrinkles`, `nasolabial`, `dimple`, `chin_boss`, `lip_press_bulge`.
+//! `lower_lid_bulge`, `nose_wrinkles`, `nasolabial`, `dimple`, `chin_boss`, `lip_press_bulge`;
+//! and `lid_raise`, which moves the upper lid's shadow on the eyeball up with a raised lid.
 //!
 //! Invariant: a pure function of its inputs (no randomness but fixed hashes), so the same frame
 //! shades to the same bytes on any thread.
@@ -220,6 +221,10 @@ fn age_lines() -> &'static [(Relief, f32)] {
         AGE_LINES.iter().filter_map(|(name, depth)| PATTERNS.iter().find(|(n, _)| n == name).map(|(_, relief)| (*relief, *depth))).collect()
     })
 }
+
+/// How far up the eyeball (as the sine of the angle from the gaze) the upper lid's shadow
+/// retreats at full `lid_raise`: from the iris's top edge to above it.
+const LID_RAISE_SHADOW: f32 = 0.4;
 
 /// The eyeballs of the rest mesh (centre, radius; see `stimuli/face/README.md`), for the lid
 /// margins.
@@ -670,10 +675,17 @@ impl<'a> FaceShader<'a> {
         let mut albedo = sclera.lerp(iris, 1.0 - smoothstep(iris_edge - 0.01, iris_edge + 0.03, angle));
         albedo = albedo.lerp(Vec3::splat(0.008), 1.0 - smoothstep(pupil - 0.02, pupil + 0.01, angle));
         // The upper lid and lashes shade the top of the eyeball; the eye sits in its socket.
-        let up = d.dot(eye.up);
+        // A raised upper lid (AU5, `lid_raise`) takes its shadow up with it, so the sclera
+        // above the iris shows white.
+        let up = d.dot(eye.up) - LID_RAISE_SHADOW * self.lid_raise(side);
         let lid_shadow = (1.0 - 0.6 * smoothstep(0.0, 0.45, up)) * (1.0 - 0.25 * smoothstep(0.55, 1.0, d.dot(right).abs()));
         let colour = self.lit(f, d, albedo * lid_shadow, 0.1, 0.0, 1.0);
         colour + self.cornea_highlight(d, f.view_dir) * self.interpolate(&self.key_light, f)
+    }
+
+    /// The `lid_raise` weight on eye `side` (0 = the person's left).
+    fn lid_raise(&self, side: usize) -> f32 {
+        self.posed.appearance.get("lid_raise").map_or(0.0, |(left, right)| if side == 0 { *left } else { *right })
     }
 
     /// Reflections on the wet cornea: the key light as a small bright catchlight, the fill as
