@@ -15,7 +15,9 @@
 //! with fixed hashes, in triangle order); a strand starts along the comb direction (away from
 //! the parting, back and down at the back of the head), bends under gravity, takes the curl of
 //! its texture and is kept outside the head (a spherical height map of the skin), outside the
-//! face and above the shoulders.
+//! face and above the shoulders. Hanging hair is cut to a line (strands rooted low at the back
+//! and sides grow longer) and fans out over the back below the ears, so it fills the space
+//! beside the neck.
 //! Invariant: a pure function of its inputs in a fixed order: the same person gives the same
 //! cards, bytes and all, on any thread count.
 
@@ -282,6 +284,35 @@ fn face_half_widths(skin: &[Vec3]) -> Vec<f32> {
         }
     }
     (0..FACE_BANDS).map(|i| widths[i.saturating_sub(1)..(i + 2).min(FACE_BANDS)].iter().copied().fold(0.0, f32::max)).collect()
+}
+
+/// Extra length (decimetres) for a strand of hanging hair rooted below the crown: hair is
+/// cut to a line, so the strands growing low at the back and sides are as long as they need
+/// to be to end near the others (with their own length alone they ended at the jaw, leaving
+/// the space beside the neck empty).
+fn cut_line_reach(root: &Root, shape: &StyleShape) -> f32 {
+    if shape.gather.is_some() || shape.gravity < 2.0 {
+        return 0.0;
+    }
+    0.6 * (8.4 - root.rest.y).max(0.0)
+}
+
+/// Half the width (decimetres) over which hair hanging down the back fans out toward the
+/// shoulders.
+const BACK_FAN_HALF_WIDTH: f32 = 0.95;
+
+/// The sideways pull (per decimetre of strand) on hair that has fallen below the ears behind
+/// them: it spreads over the upper back toward the shoulders instead of hanging in a narrow
+/// tail behind the neck, so seen from the front it fills the space between the neck and the
+/// hair falling beside the face. None at the back's midline, none at the shoulders' width.
+fn fan_out(p: Vec3) -> Vec3 {
+    if p.z > 0.15 {
+        return Vec3::ZERO;
+    }
+    let below = smooth(BELOW_EARS + 0.3, BELOW_EARS - 0.2, p.y);
+    let side = (p.x / 0.3).clamp(-1.0, 1.0);
+    let room = (1.0 - p.x.abs() / BACK_FAN_HALF_WIDTH).max(0.0);
+    Vec3::X * (5.0 * below * side * room)
 }
 
 /// Keeps hanging hair beside the face (not over it) and above the shoulders.
@@ -737,7 +768,7 @@ fn comb_direction(root: &Root, parting: Parting, gather: Option<Vec3>) -> Vec3 {
 /// under an overhang, the ear, and its first step would jump out over it).
 fn grow(root: &Root, n: u32, identity: &Identity, shape: &StyleShape, head: &HeadMap) -> Option<Vec<Vec3>> {
     let top = smooth(7.9, 8.4, root.rest.y);
-    let length = (shape.length_back + (shape.length_top - shape.length_back) * top) * (0.8 + 0.35 * hash01(n, 20, 0));
+    let length = (shape.length_back + (shape.length_top - shape.length_back) * top + cut_line_reach(root, shape)) * (0.8 + 0.35 * hash01(n, 20, 0));
     let step = length / shape.segments as f32;
     let texture = identity.hair_texture;
     let comb = comb_direction(root, identity.parting, shape.gather);
@@ -757,7 +788,7 @@ fn grow(root: &Root, n: u32, identity: &Identity, shape: &StyleShape, head: &Hea
                 direction = (direction + Vec3::NEG_Y * 0.8).normalize();
             }
         }
-        direction = (direction + Vec3::NEG_Y * shape.gravity * step).normalize();
+        direction = (direction + Vec3::NEG_Y * shape.gravity * step + fan_out(centre) * step).normalize();
         let mut next = centre + direction * step;
         let clearance = layer * (k as f32 / shape.segments as f32).min(1.0).sqrt() + 0.004;
         next = head.keep_outside(next, clearance);
@@ -881,7 +912,9 @@ mod tests {
 
     /// Every card corner that [`Hair::seen_from`] takes for hidden has head (skin, eyes,
     /// mouth) between it and the eye, for heads turned and tilted too; and a fair share of
-    /// the hair is hidden from the portrait camera.
+    /// the hair is hidden from the portrait camera (at least one triangle in twenty: a head
+    /// turned aside shows most of long hair, which falls over the back and toward the
+    /// shoulders).
     #[test]
     fn hair_taken_for_hidden_has_the_head_in_front_of_it() {
         let model = FaceModel::embedded();
@@ -893,7 +926,7 @@ mod tests {
             let eye = crate::engine::portrait_camera(posed.anchor, 1, 1).eye;
             let seen = hair.seen_from(eye);
             let hidden: Vec<u32> = seen.iter().filter(|t| t[0] == t[1]).map(|t| t[0]).collect();
-            assert!(hidden.len() * 10 > seen.len(), "{id}: only {} of {} triangles hidden", hidden.len(), seen.len());
+            assert!(hidden.len() * 20 > seen.len(), "{id}: only {} of {} triangles hidden", hidden.len(), seen.len());
             let head: Vec<[Vec3; 3]> =
                 Part::ALL.iter().flat_map(|&part| model.part(part).triangles.iter().map(|t| t.map(|v| posed.positions[v as usize]))).collect();
             for &v in hidden.iter().step_by(97) {
@@ -984,5 +1017,26 @@ mod tests {
         let over_face = aligned.iter().filter(|p| p.z > 0.9 && p.y < 7.5 && p.y > 6.3 && p.x.abs() < 0.55).count();
         assert_eq!(over_face, 0);
         assert!(aligned.iter().any(|p| p.y < 6.2), "long hair reaches below the chin");
+    }
+
+    /// Shoulder-length and long hair falls behind the jaw and beside the neck on both sides
+    /// (cut to a line, fanning out over the back), not only in two locks beside the face with
+    /// the backdrop showing between them and the neck. (Hanging only from their own roots,
+    /// wf1 had 714 and 720 card vertices there, saf1 1530 and 1481; now 2703 and 2663, 3671
+    /// and 3593.)
+    #[test]
+    fn long_hair_fills_the_space_beside_the_neck() {
+        let model = FaceModel::embedded();
+        for id in ["wf1", "saf1"] {
+            let (identity, posed) = neutral(id);
+            let hair = HairModel::new(model, &identity, &posed.neutral);
+            let beside = |side: f32| {
+                let x = |p: &Vec3| side * (p.x - hair.offset.x);
+                let y = |p: &Vec3| p.y - hair.offset.y;
+                hair.positions.iter().filter(|p| (0.5..0.9).contains(&x(p)) && (5.6..6.2).contains(&y(p)) && p.z - hair.offset.z < 0.15).count()
+            };
+            let (left, right) = (beside(1.0), beside(-1.0));
+            assert!(left >= 1800 && right >= 1800, "{id}: {left} and {right} card vertices beside the neck");
+        }
     }
 }

@@ -134,6 +134,13 @@ pub enum Parting {
     None,
 }
 
+/// The parting of a person whose file names none: on the left, except for tightly coiled hair,
+/// which stands out from the scalp in a mass with no parting line (a parting drew a seam
+/// down an afro).
+fn default_parting(texture: HairTexture) -> Parting {
+    if texture == HairTexture::Coiled { Parting::None } else { Parting::Left }
+}
+
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawIdentity {
@@ -370,7 +377,7 @@ fn validate(raw: RawIdentity, model: &FaceModel, line_of: &dyn Fn(&str) -> usize
         hair_style: raw.hair_style.unwrap_or(if male { HairStyle::Short } else { HairStyle::Shoulder }),
         hair_texture: raw.hair_texture.unwrap_or_default(),
         hair_grey: raw.hair_grey.unwrap_or(0.0),
-        parting: raw.parting.unwrap_or_default(),
+        parting: raw.parting.unwrap_or_else(|| default_parting(raw.hair_texture.unwrap_or_default())),
         id: raw.id,
         description: raw.description,
         sex: raw.sex,
@@ -466,5 +473,10 @@ mod tests {
         assert_eq!((x.hair_grey, x.top), (0.5, Vec3::ONE));
         let plain = IdentityTable::from_toml(GOOD, FaceModel::embedded()).unwrap();
         assert_eq!(plain.get("x").unwrap().hair_style, HairStyle::Short);
+        assert_eq!(plain.get("x").unwrap().parting, Parting::Left);
+        // Coiled hair has no parting unless the file names one.
+        let coiled = format!("{GOOD}hair_texture = \"coiled\"\n");
+        let coiled = IdentityTable::from_toml(&coiled, FaceModel::embedded()).unwrap();
+        assert_eq!(coiled.get("x").unwrap().parting, Parting::None);
     }
 }

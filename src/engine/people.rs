@@ -232,6 +232,7 @@ pub fn generate(request: &PersonRequest) -> String {
         *draw.pick(if age > 55.0 { &["short", "cropped"][..] } else { &["short", "cropped", "medium"][..] })
     };
     let parting = *draw.pick(&["left", "right", "centre", "none"]);
+    let parting = if texture == "coiled" { "none" } else { parting };
     let stubble = if female { 0.0 } else { draw.range(if origin == Origin::EastAsian { 0.05 } else { 0.15 }, 0.5) };
     let hairline = if female { draw.range(-0.02, 0.03) } else { draw.range(-0.03, 0.02) + if age > 45.0 { 0.04 } else { 0.0 } };
     let top = *draw.pick(&TOPS);
