@@ -17,7 +17,7 @@ import os
 import numpy as np
 from PIL import Image, ImageDraw
 
-from landmarks import BROW_IN, EYE, IRIS, LIP_LO, LIP_UP
+from landmarks import BROW_IN, EYE, IRIS, LIDS, LIP_LO, LIP_UP
 
 # The landmarks each measure reads, and those that frame its region.
 BROW_LINE = [70, 63, 105, 66, 107, 336, 296, 334, 293, 300]
@@ -27,6 +27,7 @@ READS = {
     "lip_gap": [LIP_UP, LIP_LO],
     "bs_eyeLookDown": [IRIS["R"], IRIS["L"]],
     "bs_eyeLookUp": [IRIS["R"], IRIS["L"]],
+    "eye_open": [i for side in "RL" for pair in LIDS[side][:3] for i in pair],
 }
 FRAME = {
     "brow_gap": BROW_LINE + EYE["R"] + EYE["L"],
@@ -34,6 +35,7 @@ FRAME = {
     "lip_gap": [61, 291, 0, 17, 2],
     "bs_eyeLookDown": BROW_LINE + EYE["R"] + EYE["L"],
     "bs_eyeLookUp": BROW_LINE + EYE["R"] + EYE["L"],
+    "eye_open": BROW_LINE + EYE["R"] + EYE["L"],
 }
 WIDTH = 320
 
