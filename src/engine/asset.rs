@@ -169,6 +169,59 @@ pub struct FaceModel {
     target_rows: HashMap<&'static str, BakedRows>,
     region_rows: HashMap<&'static str, BakedRows>,
     targets: Mutex<HashMap<String, Arc<Target>>>,
+    lash_roots: OnceLock<LashRoots>,
+}
+
+/// For every lash vertex (upper and lower cards, both eyes), the skin vertex nearest to it at
+/// rest: the lash's root on the lid margin, which moves it when a lid moves and whose normal,
+/// light and paint the skin seen between the lash clumps takes.
+#[derive(Debug)]
+pub struct LashRoots {
+    /// The first lash vertex; `nearest` is indexed from it.
+    first: u32,
+    nearest: Vec<u32>,
+}
+
+impl LashRoots {
+    /// The root of lash vertex `v` (vertex 0 for a vertex that is not a lash's).
+    pub fn of(&self, v: u32) -> u32 {
+        v.checked_sub(self.first).and_then(|i| self.nearest.get(i as usize)).copied().unwrap_or(0)
+    }
+
+    /// The nearest of `skin` (`x` and index, sorted by `x`) to `p`, the lowest index of equally
+    /// near ones: walks outward from `p`'s `x` until the gap in `x` alone is larger than the
+    /// best distance found.
+    fn nearest(skin: &[(f32, u32)], rest: &[Vec3], p: Vec3) -> u32 {
+        let start = skin.partition_point(|&(x, _)| x < p.x);
+        let (mut best, mut best_v) = (f32::INFINITY, 0u32);
+        let mut consider = |(x, v): (f32, u32)| {
+            if (x - p.x).powi(2) > best {
+                return false;
+            }
+            let d = rest[v as usize].distance_squared(p);
+            if d < best || (d == best && v < best_v) {
+                (best, best_v) = (d, v);
+            }
+            true
+        };
+        let mut right = skin[start..].iter();
+        let mut left = skin[..start].iter().rev();
+        let (mut go_right, mut go_left) = (true, true);
+        while go_right || go_left {
+            go_right = go_right && right.next().is_some_and(|&entry| consider(entry));
+            go_left = go_left && left.next().is_some_and(|&entry| consider(entry));
+        }
+        best_v
+    }
+
+    fn new(model: &FaceModel) -> LashRoots {
+        let (upper, lower) = (&model.part(Part::LashesUpper).vertices, &model.part(Part::LashesLower).vertices);
+        let (first, last) = (upper.start.min(lower.start), upper.end.max(lower.end));
+        let mut skin: Vec<(f32, u32)> = model.part(Part::Skin).vertices.clone().map(|v| (model.rest[v as usize].x, v)).collect();
+        skin.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let nearest = (first..last).map(|lash| Self::nearest(&skin, &model.rest, model.rest[lash as usize])).collect();
+        LashRoots { first, nearest }
+    }
 }
 
 impl FaceModel {
@@ -195,11 +248,16 @@ impl FaceModel {
         }
         let target_rows = reader.named_rows(3)?;
         let region_rows = reader.named_rows(1)?;
-        Ok(FaceModel { rest, parts, mirror, target_rows, region_rows, targets: Mutex::new(HashMap::new()) })
+        Ok(FaceModel { rest, parts, mirror, target_rows, region_rows, targets: Mutex::new(HashMap::new()), lash_roots: OnceLock::new() })
     }
 
     pub fn part(&self, part: Part) -> &PartMesh {
         &self.parts[part as usize]
+    }
+
+    /// Each lash vertex's root on the lid margin (worked out on first use).
+    pub fn lash_roots(&self) -> &LashRoots {
+        self.lash_roots.get_or_init(|| LashRoots::new(self))
     }
 
     /// The morph target `group/name` (e.g. `faceunits/browInnerUp`), unpacked on first use.
@@ -278,6 +336,25 @@ fn read_parts(reader: &mut Reader) -> Result<Vec<PartMesh>, AssetError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The sorted walk finds the same root as comparing every skin vertex, and the roots of
+    /// the upper lashes lie on the lid, within a centimetre and a half of their lashes.
+    #[test]
+    fn lash_roots_are_the_nearest_skin_vertices() {
+        let model = FaceModel::embedded();
+        let skin = model.part(Part::Skin).vertices.clone();
+        let roots = model.lash_roots();
+        for part in [Part::LashesUpper, Part::LashesLower] {
+            for v in model.part(part).vertices.clone() {
+                let p = model.rest[v as usize];
+                let distance = |s: u32| model.rest[s as usize].distance_squared(p);
+                let brute = skin.clone().min_by(|&a, &b| distance(a).total_cmp(&distance(b)).then(a.cmp(&b))).unwrap();
+                assert_eq!(roots.of(v), brute, "lash vertex {v}");
+                assert!(distance(brute).sqrt() < 0.15, "lash vertex {v} is {} dm from its root", distance(brute).sqrt());
+            }
+        }
+        assert_eq!(roots.of(0), 0);
+    }
 
     #[test]
     fn the_embedded_head_has_every_part() {

@@ -217,15 +217,15 @@ fn part_range(model: &FaceModel, part: Part) -> std::ops::Range<usize> {
 }
 
 /// For the upper and lower lashes, each vertex's root: the rest position of the nearest skin
-/// vertex (on the lid margin). A pull moves a lash vertex by its weight at the root, not at the
-/// lash itself, which stands up to 1 cm in front of the lid where the pull is weaker; weighing
-/// the lash by its own position bent the upper lashes back into the lid as AU5 raised it.
+/// vertex (on the lid margin, [`FaceModel::lash_roots`]). A pull moves a lash vertex by its
+/// weight at the root, not at the lash itself, which stands up to 1 cm in front of the lid where
+/// the pull is weaker; weighing the lash by its own position bent the upper lashes back into the
+/// lid as AU5 raised it.
 fn lash_roots(model: &FaceModel) -> &'static [Vec<Vec3>; 2] {
     static ROOTS: OnceLock<[Vec<Vec3>; 2]> = OnceLock::new();
     ROOTS.get_or_init(|| {
-        let skin = &model.rest[part_range(model, Part::Skin)];
-        let root = |p: &Vec3| skin.iter().copied().min_by(|a, b| a.distance_squared(*p).total_cmp(&b.distance_squared(*p))).unwrap_or(*p);
-        [Part::LashesUpper, Part::LashesLower].map(|part| model.rest[part_range(model, part)].iter().map(root).collect())
+        let roots = model.lash_roots();
+        [Part::LashesUpper, Part::LashesLower].map(|part| model.part(part).vertices.clone().map(|v| model.rest[roots.of(v) as usize]).collect())
     })
 }
 

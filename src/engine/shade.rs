@@ -43,38 +43,6 @@ fn regions(model: &FaceModel) -> &'static Regions {
     })
 }
 
-/// For every lash vertex (upper and lower cards, both eyes; indexed from the first lash
-/// vertex), the skin vertex nearest to it at rest: the lid skin the lashes lie on, whose normal,
-/// light and paint the skin between the lash clumps takes.
-fn skin_behind_lashes(model: &FaceModel) -> &'static LashSkin {
-    static BEHIND: OnceLock<LashSkin> = OnceLock::new();
-    BEHIND.get_or_init(|| {
-        let (upper, lower) = (&model.part(Part::LashesUpper).vertices, &model.part(Part::LashesLower).vertices);
-        let (first, last) = (upper.start.min(lower.start), upper.end.max(lower.end));
-        let near_eyes: Vec<u32> = model.part(Part::Skin).vertices.clone().filter(|&v| (model.rest[v as usize].y - REST_EYE_CENTRE.y).abs() < 0.3).collect();
-        let nearest = (first..last)
-            .map(|lash| {
-                let p = model.rest[lash as usize];
-                let distance = |v: u32| model.rest[v as usize].distance_squared(p);
-                near_eyes.iter().copied().min_by(|&a, &b| distance(a).total_cmp(&distance(b)).then(a.cmp(&b))).unwrap_or(0)
-            })
-            .collect();
-        LashSkin { first, nearest }
-    })
-}
-
-struct LashSkin {
-    first: u32,
-    nearest: Vec<u32>,
-}
-
-impl LashSkin {
-    /// The skin vertices behind the corners of a lash fragment.
-    fn behind(&self, f: &Fragment) -> [usize; 3] {
-        f.vertex.map(|v| self.nearest.get(v.saturating_sub(self.first) as usize).copied().unwrap_or(0) as usize)
-    }
-}
-
 /// Depth of the head as seen from the key light, for cast shadows (the nose on the cheek, the
 /// brow ridge on the eyes, the chin on the neck).
 pub struct ShadowMap {
@@ -755,7 +723,8 @@ impl<'a> FaceShader<'a> {
     /// The lid skin behind a lash fragment, shaded with the normal, light and paint of the
     /// skin vertices it lies on (so that the skin between the clumps matches the lid around).
     fn lid_behind_lashes(&self, f: &Fragment) -> Vec3 {
-        let behind = skin_behind_lashes(self.model).behind(f);
+        let roots = self.model.lash_roots();
+        let behind = f.vertex.map(|v| roots.of(v) as usize);
         let w = [f.barycentric.x, f.barycentric.y, f.barycentric.z];
         let mix = |value: &dyn Fn(usize) -> f32| (0..3).map(|k| w[k] * value(behind[k])).sum::<f32>();
         let normal = (0..3).fold(Vec3::ZERO, |n, k| n + self.posed.normals[behind[k]] * w[k]).normalize_or(f.normal);
