@@ -315,6 +315,14 @@ fn fan_out(p: Vec3) -> Vec3 {
     Vec3::X * (5.0 * below * side * room)
 }
 
+/// The height of the shoulder's top (a rough slope from the neck out to the shoulder tip) under
+/// `p`, when `p` lies below it.
+fn below_shoulder(p: Vec3) -> Option<f32> {
+    let x = p.x.abs();
+    let shoulder = 5.5 - 0.3 * ((x - 0.55) / 1.3).clamp(0.0, 1.0) + 0.02;
+    (x > 0.55 && p.y < shoulder && p.z > -0.7 && p.z < 1.0).then_some(shoulder)
+}
+
 /// Keeps hanging hair beside the face (not over it) and above the shoulders.
 ///
 /// Only hair that has fallen below its root (`root_y`) is kept off the face: hair still
@@ -340,13 +348,9 @@ fn keep_clear_of_face_and_shoulders(mut p: Vec3, root_y: f32, head: &HeadMap) ->
             p.z = 0.2 + out.y * 0.62;
         }
     }
-    // On the shoulders (a rough slope from the neck out to the shoulder tip).
-    let x = p.x.abs();
-    if x > 0.55 {
-        let shoulder = 5.5 - 0.3 * ((x - 0.55) / 1.3).clamp(0.0, 1.0) + 0.02;
-        if p.y < shoulder && p.z > -0.7 && p.z < 1.0 {
-            p.y = shoulder;
-        }
+    // On the shoulders.
+    if let Some(shoulder) = below_shoulder(p) {
+        p.y = shoulder;
     }
     p
 }
@@ -796,6 +800,9 @@ fn grow(root: &Root, n: u32, identity: &Identity, shape: &StyleShape, head: &Hea
         if shape.hug > 0.0 && next.y > 7.1 {
             next = head.draw_towards(next, clearance, shape.hug * smooth(7.1, 7.4, next.y));
         }
+        // Hair that comes down onto a shoulder ends there, lying on it (carried on along the
+        // shoulder's slope it slid out past the shoulder as a horizontal wisp).
+        let lands = below_shoulder(next).is_some();
         next = keep_clear_of_face_and_shoulders(next, root.position.y, head);
         direction = (next - centre).normalize_or(direction);
         centre = next;
@@ -819,6 +826,10 @@ fn grow(root: &Root, n: u32, identity: &Identity, shape: &StyleShape, head: &Hea
             break;
         }
         points.push(point);
+        if lands {
+            points.resize(shape.segments + 1, point);
+            break;
+        }
     }
     Some(points)
 }
@@ -1037,6 +1048,20 @@ mod tests {
             };
             let (left, right) = (beside(1.0), beside(-1.0));
             assert!(left >= 1800 && right >= 1800, "{id}: {left} and {right} card vertices beside the neck");
+        }
+    }
+
+    /// Hair that comes down onto a shoulder ends there: nothing slides out along the
+    /// shoulder's slope past where the hair hangs (below the shoulders' top, hair reaches out
+    /// to 1.23-1.29 dm from the midline on wf1, saf1 and hlf2; it slid out to 2.0-3.1 dm).
+    #[test]
+    fn hair_on_the_shoulders_ends_there() {
+        let model = FaceModel::embedded();
+        for id in ["wf1", "saf1", "hlf2"] {
+            let (identity, posed) = neutral(id);
+            let hair = HairModel::new(model, &identity, &posed.neutral);
+            let widest = hair.positions.iter().map(|p| *p - hair.offset).filter(|p| p.y < 5.55 && p.z > -0.7).map(|p| p.x.abs()).fold(0.0f32, f32::max);
+            assert!(widest < 1.4, "{id}: hair on the shoulders reaches out to x = {widest:.2} dm");
         }
     }
 }
