@@ -253,13 +253,23 @@ impl HeadMap {
         if r <= target { p } else { HEAD_CENTRE + d * ((r + (target - r) * amount) / r.max(1e-6)) }
     }
 
+    /// How far `p` is above the skin (decimetres, along the ray from the centre).
+    fn height(&self, p: Vec3) -> f32 {
+        (p - HEAD_CENTRE).length() - self.surface(p)
+    }
+
+    /// The scalp's outward direction at `p`, and how closely `p` lies on it: 1 within a
+    /// millimetre of the skin, 0 from 8 mm out.
+    fn lying_on(&self, p: Vec3) -> (Vec3, f32) {
+        ((p - HEAD_CENTRE).normalize_or(Vec3::Y), 1.0 - smooth(0.01, 0.08, self.height(p)))
+    }
+
     /// The direction across a card at `p` along `tangent`: facing `to_eye`, turned into the
     /// scalp's tangent plane as the card comes within a millimetre of the skin (a card seen
     /// edge-on there lies flat along the scalp).
     fn card_side(&self, p: Vec3, tangent: Vec3, to_eye: Vec3) -> Vec3 {
         let facing = tangent.cross(to_eye).normalize_or(Vec3::X);
-        let radial = (p - HEAD_CENTRE).normalize_or(Vec3::Y);
-        let near = 1.0 - smooth(0.01, 0.08, (p - HEAD_CENTRE).length() - self.surface(p));
+        let (radial, near) = self.lying_on(p);
         let flat = facing - radial * facing.dot(radial) * near;
         flat.try_normalize().unwrap_or_else(|| tangent.cross(radial).normalize_or(Vec3::X))
     }
@@ -498,9 +508,10 @@ impl HairModel {
             head: HeadMap::new(&aligned),
             offset,
         };
+        let combed = combed_lighting(identity, &shape);
         for (n, root) in roots.iter().enumerate() {
             let Some(points) = grow(root, n as u32, identity, &shape, &hair.head) else { continue };
-            let card = Card { width: shape.width * (0.7 + 0.6 * hash01(n as u32, 7, 1)), tip_from: tip_from(n as u32), on_head: true, combed: combed_lighting(identity, &shape) };
+            let card = Card { width: shape.width * (0.7 + 0.6 * hash01(n as u32, 7, 1)), tip_from: tip_from(n as u32), on_head: true, combed };
             hair.add_card(&points, root.vertex, card);
             hair.strand_tone.push(lock_tone(root.rest, n as u32));
             hair.strand_grey.push(greying(identity.hair_grey, n as u32));
@@ -554,8 +565,7 @@ impl HairModel {
     /// the comb direction there ([`Card::combed`]); away from it, its own.
     fn lit_along(&self, p: Vec3, tangent: Vec3, combed: Option<(Parting, Option<Vec3>)>) -> Vec3 {
         let Some((parting, gather)) = combed else { return tangent };
-        let radial = (p - HEAD_CENTRE).normalize_or(Vec3::Y);
-        let near = 1.0 - smooth(0.01, 0.08, (p - HEAD_CENTRE).length() - self.head.surface(p));
+        let (radial, near) = self.head.lying_on(p);
         if near <= 0.0 {
             return tangent;
         }
@@ -903,7 +913,7 @@ mod tests {
         // that hang free (away from the scalp and moved rigidly with the head).
         let lean = |positions: &[Vec3], eye: Vec3| {
             let free = hair.rows.iter().enumerate().filter(|(k, row)| {
-                hair.root_follow[2 * k] == 0.0 && (row.point - HEAD_CENTRE).length() - hair.head.surface(row.point) > 0.1
+                hair.root_follow[2 * k] == 0.0 && hair.head.height(row.point) > 0.1
             });
             let leans: Vec<f32> = free.map(|(k, _)| {
                 let (a, b) = (positions[2 * k], positions[2 * k + 1]);
@@ -1112,7 +1122,7 @@ mod tests {
             }
             let next = (hair.positions[v + 2] + hair.positions[v + 3]) * 0.5 - hair.offset;
             let Some(own) = (next - p).try_normalize() else { continue };
-            if (p - HEAD_CENTRE).length() - hair.head.surface(p) > 0.01 {
+            if hair.head.height(p) > 0.01 {
                 continue;
             }
             rows.push((strand, p, own, hair.tangents[v]));
