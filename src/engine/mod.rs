@@ -293,6 +293,37 @@ mod tests {
         }
     }
 
+    /// The samples of a frontal 242×240 picture of `expression` on `identity` that show the
+    /// lips' red: skin triangles whose corners are, on average, at least half lip paint.
+    fn red_lip_samples(expression: &str, identity: &Identity) -> usize {
+        let model = FaceModel::embedded();
+        let lips = model.region("lips").unwrap();
+        let posed = pose_expression(&Catalog::built_in().parse(expression).unwrap(), identity).unwrap();
+        let camera = portrait_camera(posed.anchor, 242, 240);
+        let scene = Scene::new(&posed, identity, camera.eye, 0.0);
+        let skin = &model.part(Part::Skin).triangles;
+        let visibility = raster::visibility(&scene.items(&posed), &camera, &still_options(Some(1)));
+        let is_red = |triangle: u32| skin[triangle as usize].iter().map(|&v| lips[v as usize]).sum::<f32>() / 3.0 >= 0.5;
+        visibility.samples.iter().flatten().filter(|hit| hit.item == 0 && is_red(hit.triangle)).count()
+    }
+
+    /// AU28 sucks the lips in over the teeth: at E, the red of the lips the camera sees shrinks
+    /// to under a fifth of its area at rest on each of the eight evaluation people (full lips
+    /// too, which the mouthRoll targets alone left showing), and it shrinks with intensity.
+    #[test]
+    fn au28_hides_the_red_of_the_lips() {
+        let mut failures = Vec::new();
+        for id in ["wm1", "wm2", "bm1", "bm2", "wf1", "wf2", "bf1", "bf2"] {
+            let identity = IdentityTable::built_in().get(id).unwrap();
+            let [rest, c, e] = ["0", "28C", "28E"].map(|x| red_lip_samples(x, identity));
+            println!("{id}: red lip samples at rest {rest}, 28C {c}, 28E {e} ({:.3} of rest)", e as f32 / rest as f32);
+            if !(rest > 0 && e * 5 < rest && c > e && c < rest) {
+                failures.push(format!("{id}: rest {rest}, 28C {c}, 28E {e}"));
+            }
+        }
+        assert!(failures.is_empty(), "{}", failures.join("\n"));
+    }
+
     /// The 54 combinations of HapFACS Table 4 and the EmFACS prototypes render.
     #[test]
     fn combinations_render() {

@@ -3,7 +3,8 @@
 //! In: the [`FaceModel`], an [`Identity`], and [`ChannelValues`] from the AU basis. Out: a
 //! [`Posed`] head: vertex positions and normals, both eyes' centre and gaze, and the shader's
 //! appearance weights. Order of operations: identity targets, AU targets (symmetric ones blended
-//! across the midline by side), jaw rotation, eye rotation, head rotation. AU targets never move
+//! across the midline by side) and skin pulls, lip rolls (about the lips' roots where those put
+//! them), jaw rotation, eye rotation, head rotation. AU targets never move
 //! the eyeballs (those turn rigidly with `eyes.*`).
 //!
 //! Invariant: pure function of its inputs; no I/O beyond the embedded model's first use.
@@ -201,6 +202,13 @@ pub fn pose(model: &FaceModel, prepared: &PreparedIdentity, values: &ChannelValu
             _ => {}
         }
     }
+    // A lip turns about its root where the targets and pulls have put it.
+    for (channel, left, right) in values.sided() {
+        if let Channel::Roll(name) = channel {
+            let roll = LipRoll::named(name).ok_or_else(|| AssetError::Missing(format!("lip roll {name}")))?;
+            roll.apply(model, &mut positions, left, right)?;
+        }
+    }
 
     keep_lids_outside_the_eyes(prepared, &mut positions);
     let anchor = (prepared.eye_centres[0] + prepared.eye_centres[1]) / 2.0;
@@ -278,6 +286,104 @@ impl Deformer {
                 }
             }
         }
+    }
+}
+
+/// A lip turned in over the teeth (AU28 sucks the lips in): the lip, by the face model's lip
+/// paint and the skin within `spread` of it, slides by `shift` and turns about an axis along x
+/// through its root, which moves with the lip as the identity and the AU targets have moved it
+/// (`stimuli/engine/lip_rolls.toml`).
+#[derive(Debug, Clone, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LipRoll {
+    pub name: String,
+    /// The lip's heights at rest (y from, to; decimetres): the lips meet between the two.
+    pub between: [f32; 2],
+    /// How far beyond the red (decimetres) the skin follows, less the farther it lies.
+    pub spread: f32,
+    /// Distances from the midline (decimetres) over which the movement fades out toward the
+    /// mouth's corners, where the lips stay joined.
+    pub corners: [f32; 2],
+    /// The share of the lip a vertex must have to start moving, and from which it moves fully.
+    pub weight: [f32; 2],
+    /// The axis through the lip's root at rest: height and depth (y, z), decimetres.
+    pub root: [f32; 2],
+    /// The turn at value 1, degrees about +x (negative turns a lower lip's edge inward).
+    pub degrees: f32,
+    /// How far the lip slides at value 1 before it turns: up (y) and forward (z), decimetres.
+    pub shift: [f32; 2],
+}
+
+/// How far (decimetres) from the rest axis the skin lies whose movement carries the axis.
+const ROLL_ROOT_REACH: f32 = 0.04;
+
+impl LipRoll {
+    /// The rolls shipped with facslab (`stimuli/engine/lip_rolls.toml`).
+    pub fn built_in() -> &'static [LipRoll] {
+        #[derive(serde::Deserialize)]
+        struct File {
+            roll: Vec<LipRoll>,
+        }
+        static TABLE: OnceLock<Vec<LipRoll>> = OnceLock::new();
+        TABLE.get_or_init(|| toml::from_str::<File>(include_str!("../../stimuli/engine/lip_rolls.toml")).expect("the built-in lip rolls are valid").roll)
+    }
+
+    pub fn named(name: &str) -> Option<&'static LipRoll> {
+        LipRoll::built_in().iter().find(|r| r.name == name)
+    }
+
+    /// Each skin vertex's share of the movement (0 outside the lip), worked out once per roll.
+    fn weights(&self, model: &FaceModel) -> Result<Arc<Vec<f32>>, AssetError> {
+        static CACHE: OnceLock<Mutex<BTreeMap<String, Arc<Vec<f32>>>>> = OnceLock::new();
+        super::cached(CACHE.get_or_init(Default::default), self.name.clone(), || self.lip_shares(model))
+    }
+
+    fn lip_shares(&self, model: &FaceModel) -> Result<Vec<f32>, AssetError> {
+        let red = model.region("lips")?;
+        let [low, high] = self.between;
+        let on_lip = |i: usize| (low..high).contains(&model.rest[i].y);
+        let skin = part_range(model, Part::Skin);
+        let reds: Vec<(Vec3, f32)> = skin.clone().filter(|&i| on_lip(i) && red[i] > 0.0).map(|i| (model.rest[i], red[i])).collect();
+        let [from, full] = self.weight;
+        let mut shares = vec![0.0; model.rest.len()];
+        for i in skin.filter(|&i| on_lip(i)) {
+            let r = model.rest[i];
+            let near = reds.iter().map(|&(p, w)| w * (1.0 - smoothstep(0.0, self.spread, (p - r).length()))).fold(0.0, f32::max);
+            shares[i] = smoothstep(from, full, near) * (1.0 - smoothstep(self.corners[0], self.corners[1], r.x.abs()));
+        }
+        Ok(shares)
+    }
+
+    /// Where the root's axis lies now: the rest axis moved as the skin along it (within
+    /// [`ROLL_ROOT_REACH`], the middle of the mouth) has moved on average.
+    fn posed_root(&self, model: &FaceModel, positions: &[Vec3]) -> Vec3 {
+        let root = Vec3::new(0.0, self.root[0], self.root[1]);
+        let near = part_range(model, Part::Skin).filter(|&i| {
+            let r = model.rest[i];
+            r.x.abs() < 0.1 && (Vec3::new(0.0, r.y, r.z) - root).length() < ROLL_ROOT_REACH
+        });
+        let (sum, count) = near.fold((Vec3::ZERO, 0), |(sum, n), i| (sum + positions[i] - model.rest[i], n + 1));
+        if count == 0 { root } else { root + sum / count as f32 }
+    }
+
+    /// Rolls the lip by `left` and `right` (the channel's values on each side; a one-sided
+    /// roll fades across the midline as other channels do).
+    fn apply(&self, model: &FaceModel, positions: &mut [Vec3], left: f32, right: f32) -> Result<(), AssetError> {
+        if left == 0.0 && right == 0.0 {
+            return Ok(());
+        }
+        let weights = self.weights(model)?;
+        let root = self.posed_root(model, positions);
+        for i in part_range(model, Part::Skin) {
+            let w = weights[i];
+            if w > 0.0 {
+                let value = side_weight(left, right, model.rest[i].x, MIDLINE_BLEND);
+                let shift = Vec3::new(0.0, self.shift[0], self.shift[1]) * value;
+                let turned = Mat3::from_rotation_x(self.degrees.to_radians() * value) * (positions[i] + shift - root) + root;
+                positions[i] = positions[i].lerp(turned, w);
+            }
+        }
+        Ok(())
     }
 }
 

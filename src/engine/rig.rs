@@ -33,6 +33,8 @@ pub enum Channel {
     Shade(String),
     /// A local skin pull (`stimuli/engine/deformers.toml`).
     Pull(String),
+    /// A lip turned in about its root (`stimuli/engine/lip_rolls.toml`).
+    Roll(String),
 }
 
 impl Channel {
@@ -45,6 +47,9 @@ impl Channel {
         }
         if let Some(name) = text.strip_prefix("pull:") {
             return Ok(Channel::Pull(name.to_string()));
+        }
+        if let Some(name) = text.strip_prefix("roll:") {
+            return Ok(Channel::Roll(name.to_string()));
         }
         Ok(match text {
             "jaw.open" => Channel::JawOpen,
@@ -61,7 +66,7 @@ impl Channel {
 
     /// Rigid channels act on the whole head or both eyes; they have no side.
     pub fn is_rigid(&self) -> bool {
-        !matches!(self, Channel::Target(_) | Channel::Shade(_) | Channel::Pull(_))
+        !matches!(self, Channel::Target(_) | Channel::Shade(_) | Channel::Pull(_) | Channel::Roll(_))
     }
 }
 
