@@ -422,6 +422,19 @@ mod tests {
         }
     }
 
+    /// AU24 turns full lips in a little with AU28's lip rolls; shown with AU28, the corrective
+    /// gives back what Eq. 1's clamp to AU24's maximum takes, so the lips roll in as fully as
+    /// with AU28 alone.
+    #[test]
+    fn lip_press_and_lip_suck_roll_the_lips_fully() {
+        for lip in ["lower_lip", "upper_lip"] {
+            let roll = Channel::Roll(lip.to_string());
+            assert!((values("24").get(&roll, Side::Left) - 0.15).abs() < 1e-6, "{lip}");
+            assert!((values("28").get(&roll, Side::Left) - 1.0).abs() < 1e-6, "{lip}");
+            assert!((values("24+28").get(&roll, Side::Right) - 1.0).abs() < 1e-6, "{lip}");
+        }
+    }
+
     #[test]
     fn every_corrective_target_exists() {
         let model = crate::engine::asset::FaceModel::embedded();
