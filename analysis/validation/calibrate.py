@@ -17,7 +17,8 @@ evaluation people (`EVALUATION_PEOPLE`; `--people` picks others):
         --facslab target/release/facslab --validators ../shared/tools/validators
     /tmp/validators-venv/bin/python analysis/validation/calibrate.py table --facslab ...
 
-Renders go to --work (default /tmp/facslab-calibrate), never into the repository. Sides: "L"/"R"
+Renders go to --work (default /tmp/facslab-calibrate), never into the repository; a rerun with
+the same binary reuses them, one with another build starts afresh (`renders.py`). Sides: "L"/"R"
 are the person's own left/right; MediaPipe's fooLeft/fooRight blendshapes are also the person's own.
 """
 import argparse
@@ -30,6 +31,8 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 from PIL import Image
+
+from renders import renders_of
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 RESULTS = os.path.join(HERE, "results")
@@ -79,7 +82,7 @@ def catalog_codes(repo):
 
 
 def render_all(facslab, jobs, workers):
-    """jobs: (expression, identity, path); renders the ones not yet on disk."""
+    """jobs: (expression, identity, path); renders the ones not yet on disk (see `renders_of`)."""
     def one(job):
         expr, ident, path = job
         if not os.path.exists(path):
@@ -90,8 +93,7 @@ def render_all(facslab, jobs, workers):
 
 
 def floors(a):
-    work = os.path.join(a.work, "floors")
-    os.makedirs(work, exist_ok=True)
+    work = renders_of(a.facslab, os.path.join(a.work, "floors"))
     people = a.people or identities(a.facslab)
     render_all(a.facslab, [(e, p, os.path.join(work, f"{p}__{e}.png")) for p in people for e in FLOOR_EXPRESSIONS], a.workers)
     rows = os.path.join(a.work, "floors.jsonl")
@@ -122,8 +124,7 @@ def detect(lm, path):
 
 
 def table(a):
-    work = os.path.join(a.work, "table")
-    os.makedirs(work, exist_ok=True)
+    work = renders_of(a.facslab, os.path.join(a.work, "table"))
     people = a.people or EVALUATION_PEOPLE
     codes = catalog_codes(os.path.dirname(os.path.dirname(HERE)))
     exprs = ["0"] + [f"{c}{lv}" for c in codes for lv in LEVELS]

@@ -26,6 +26,8 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 from PIL import Image
 
+from renders import renders_of
+
 # MediaPipe mesh indices (subject's right = R, left = L).
 EYE = dict(R=[33, 133, 159, 145], L=[362, 263, 386, 374])
 LIDS = dict(R=((159, 145), (158, 153), (160, 144), (33, 133)), L=((386, 374), (385, 380), (387, 373), (362, 263)))
@@ -151,8 +153,7 @@ def main():
     args = ap.parse_args()
     import mediapipe as mp
 
-    frames = os.path.join(args.out, "frames")
-    os.makedirs(frames, exist_ok=True)
+    frames = renders_of(args.facslab, os.path.join(args.out, "frames"))
     catalog = subprocess.run([args.facslab, "catalog"], check=True, capture_output=True, text=True).stdout
     units = [(int(l.split()[0]), "L/R" in l) for l in catalog.splitlines() if l.strip()]
     jobs = []
