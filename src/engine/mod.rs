@@ -302,9 +302,11 @@ mod tests {
         let camera = portrait_camera(posed.anchor, 242, 240);
         let scene = Scene::new(&posed, identity, camera.eye, 0.0);
         let skin = &model.part(Part::Skin).triangles;
+        // The scene's items are the head's parts in `Part::ALL` order, then the body and the hair.
+        let skin_item = Part::ALL.iter().position(|&p| p == Part::Skin).unwrap() as u32;
         let visibility = raster::visibility(&scene.items(&posed), &camera, &still_options(Some(1)));
         let is_red = |triangle: u32| skin[triangle as usize].iter().map(|&v| lips[v as usize]).sum::<f32>() / 3.0 >= 0.5;
-        visibility.samples.iter().flatten().filter(|hit| hit.item == 0 && is_red(hit.triangle)).count()
+        visibility.samples.iter().flatten().filter(|hit| hit.item == skin_item && is_red(hit.triangle)).count()
     }
 
     /// AU28 sucks the lips in over the teeth: at E, the red of the lips the camera sees shrinks

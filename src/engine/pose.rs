@@ -332,37 +332,42 @@ impl LipRoll {
         LipRoll::built_in().iter().find(|r| r.name == name)
     }
 
-    /// Each skin vertex's share of the movement (0 outside the lip), worked out once per roll.
-    fn weights(&self, model: &FaceModel) -> Result<Arc<Vec<f32>>, AssetError> {
-        static CACHE: OnceLock<Mutex<BTreeMap<String, Arc<Vec<f32>>>>> = OnceLock::new();
-        super::cached(CACHE.get_or_init(Default::default), self.name.clone(), || self.lip_shares(model))
+    /// The roll's vertices in the face model, worked out once per roll.
+    fn reach(&self, model: &FaceModel) -> Result<Arc<RollReach>, AssetError> {
+        static CACHE: OnceLock<Mutex<BTreeMap<String, Arc<RollReach>>>> = OnceLock::new();
+        super::cached(CACHE.get_or_init(Default::default), self.name.clone(), || self.find_reach(model))
     }
 
-    fn lip_shares(&self, model: &FaceModel) -> Result<Vec<f32>, AssetError> {
+    fn find_reach(&self, model: &FaceModel) -> Result<RollReach, AssetError> {
         let red = model.region("lips")?;
         let [low, high] = self.between;
         let on_lip = |i: usize| (low..high).contains(&model.rest[i].y);
         let skin = part_range(model, Part::Skin);
         let reds: Vec<(Vec3, f32)> = skin.clone().filter(|&i| on_lip(i) && red[i] > 0.0).map(|i| (model.rest[i], red[i])).collect();
         let [from, full] = self.weight;
-        let mut shares = vec![0.0; model.rest.len()];
-        for i in skin.filter(|&i| on_lip(i)) {
+        let share = |i: usize| {
             let r = model.rest[i];
             let near = reds.iter().map(|&(p, w)| w * (1.0 - smoothstep(0.0, self.spread, (p - r).length()))).fold(0.0, f32::max);
-            shares[i] = smoothstep(from, full, near) * (1.0 - smoothstep(self.corners[0], self.corners[1], r.x.abs()));
-        }
-        Ok(shares)
+            smoothstep(from, full, near) * (1.0 - smoothstep(self.corners[0], self.corners[1], r.x.abs()))
+        };
+        let lip = skin.clone().filter(|&i| on_lip(i)).map(|i| (i as u32, share(i))).filter(|&(_, w)| w > 0.0).collect();
+        let root = Vec3::new(0.0, self.root[0], self.root[1]);
+        let root_skin = skin
+            .filter(|&i| {
+                let r = model.rest[i];
+                r.x.abs() < 0.1 && (Vec3::new(0.0, r.y, r.z) - root).length() < ROLL_ROOT_REACH
+            })
+            .map(|i| i as u32)
+            .collect();
+        Ok(RollReach { lip, root_skin })
     }
 
-    /// Where the root's axis lies now: the rest axis moved as the skin along it (within
-    /// [`ROLL_ROOT_REACH`], the middle of the mouth) has moved on average.
-    fn posed_root(&self, model: &FaceModel, positions: &[Vec3]) -> Vec3 {
+    /// Where the root's axis lies now: the rest axis moved as the skin along it has moved on
+    /// average.
+    fn posed_root(&self, model: &FaceModel, reach: &RollReach, positions: &[Vec3]) -> Vec3 {
         let root = Vec3::new(0.0, self.root[0], self.root[1]);
-        let near = part_range(model, Part::Skin).filter(|&i| {
-            let r = model.rest[i];
-            r.x.abs() < 0.1 && (Vec3::new(0.0, r.y, r.z) - root).length() < ROLL_ROOT_REACH
-        });
-        let (sum, count) = near.fold((Vec3::ZERO, 0), |(sum, n), i| (sum + positions[i] - model.rest[i], n + 1));
+        let count = reach.root_skin.len();
+        let sum = reach.root_skin.iter().fold(Vec3::ZERO, |sum, &i| sum + positions[i as usize] - model.rest[i as usize]);
         if count == 0 { root } else { root + sum / count as f32 }
     }
 
@@ -372,19 +377,27 @@ impl LipRoll {
         if left == 0.0 && right == 0.0 {
             return Ok(());
         }
-        let weights = self.weights(model)?;
-        let root = self.posed_root(model, positions);
-        for i in part_range(model, Part::Skin) {
-            let w = weights[i];
-            if w > 0.0 {
-                let value = side_weight(left, right, model.rest[i].x, MIDLINE_BLEND);
-                let shift = Vec3::new(0.0, self.shift[0], self.shift[1]) * value;
-                let turned = Mat3::from_rotation_x(self.degrees.to_radians() * value) * (positions[i] + shift - root) + root;
-                positions[i] = positions[i].lerp(turned, w);
-            }
+        let reach = self.reach(model)?;
+        let root = self.posed_root(model, &reach, positions);
+        for &(i, w) in &reach.lip {
+            let i = i as usize;
+            let value = side_weight(left, right, model.rest[i].x, MIDLINE_BLEND);
+            let shift = Vec3::new(0.0, self.shift[0], self.shift[1]) * value;
+            let turned = Mat3::from_rotation_x(self.degrees.to_radians() * value) * (positions[i] + shift - root) + root;
+            positions[i] = positions[i].lerp(turned, w);
         }
         Ok(())
     }
+}
+
+/// The vertices a [`LipRoll`] reads and moves, from the face model at rest.
+#[derive(Debug)]
+struct RollReach {
+    /// The skin vertices that move with the lip, in vertex order, with their share (0 < w ≤ 1).
+    lip: Vec<(u32, f32)>,
+    /// The skin within [`ROLL_ROOT_REACH`] of the rest axis in the middle of the mouth, whose
+    /// movement carries the axis.
+    root_skin: Vec<u32>,
 }
 
 /// `{ethnic}` targets resolve to the three ancestry variants, weighted by the identity.
