@@ -7,13 +7,14 @@
 //! In: the face model, the identity and its neutral head. Out: [`HairModel`] (cached per
 //! person): card vertices in the neutral head's space with the strand direction (tangent) and
 //! `uv` (across, along) per vertex, per-strand tone and share of white fibres (greying is drawn
-//! fibre by fibre across a card, not card by card); [`HairModel::posed`] moves
+//! fibre by fibre across a card, not card by card), and per skin vertex how much hair lies on
+//! it ([`HairModel::skin_cover`], painted as hair by the shader); [`HairModel::posed`] moves
 //! the cards with the head for one frame (the head's rigid motion plus the local movement of
 //! each strand's root).
 //!
 //! Growth: each root is a fixed point of a scalp triangle (sampled by area and the scalp mask
-//! with fixed hashes, in triangle order); a strand starts along the comb direction (away from
-//! the parting, back and down at the back of the head), bends under gravity, takes the curl of
+//! with fixed hashes, in triangle order; next to a parting, at its edge); a strand starts along
+//! the comb direction (away from the parting, back and down at the back of the head), bends under gravity, takes the curl of
 //! its texture and is kept outside the head (a spherical height map of the skin), outside the
 //! face and above the shoulders. Hanging hair is cut to a line (strands rooted low at the back
 //! and sides grow longer) and fans out over the back below the ears, so it fills the space
@@ -69,6 +70,9 @@ pub struct HairModel {
     /// The head map the cards were laid along, and the shift from its space to the person's.
     head: HeadMap,
     offset: Vec3,
+    /// Per skin vertex: how much hair lies over it (1 under and beside cards lying on the
+    /// temples, forehead and scalp, 0 away from them; see [`skin_under_cards`]).
+    pub skin_cover: Vec<f32>,
 }
 
 /// One row of a card: where the strand passes, how wide the card is, and whether it lies
@@ -507,6 +511,7 @@ impl HairModel {
             rows: Vec::new(),
             head: HeadMap::new(&aligned),
             offset,
+            skin_cover: Vec::new(),
         };
         let combed = combed_lighting(identity, &shape);
         for (n, root) in roots.iter().enumerate() {
@@ -519,6 +524,8 @@ impl HairModel {
         if let (HairStyle::Bun, Some(centre)) = (identity.hair_style, shape.gather) {
             hair.add_bun(centre, &shape, roots.first().map_or(0, |r| r.vertex), identity.hair_grey);
         }
+        let ears = model.region("ears").unwrap_or_default();
+        hair.skin_cover = skin_under_cards(&hair.rows, hair.triangles_per_strand as usize / 2 + 1, &aligned, &ears, &hair.head);
         for p in &mut hair.positions {
             *p += offset;
         }
@@ -744,6 +751,8 @@ fn anchor_vertices(model: &FaceModel) -> [u32; 3] {
 fn sample_roots(model: &FaceModel, identity: &Identity, neutral: &[Vec3], shape: &StyleShape) -> Vec<Root> {
     let mut roots = Vec::new();
     let ears = model.region("ears").unwrap_or_default();
+    let curled = matches!(identity.hair_texture, HairTexture::Curly | HairTexture::Coiled);
+    let parting = parting_x(identity.parting).filter(|_| !curled && shape.gather.is_none());
     for (t, &[a, b, c]) in model.part(Part::Skin).triangles.iter().enumerate() {
         let [ra, rb, rc] = [a, b, c].map(|v| model.rest[v as usize]);
         let centre = (ra + rb + rc) / 3.0;
@@ -769,10 +778,132 @@ fn sample_roots(model: &FaceModel, identity: &Identity, neutral: &[Vec3], shape:
             let position = pa * w + pb * u + pc * v;
             let rest = ra * w + rb * u + rc * v;
             let vertex = if w >= u && w >= v { a } else if u >= v { b } else { c };
-            roots.push(Root { position, normal, rest, vertex });
+            roots.push(to_parting_edge(Root { position, normal, rest, vertex }, parting));
         }
     }
     roots
+}
+
+/// Half-width (decimetres, base mesh) of the line of scalp where straight or wavy hair parts
+/// (painted by the shader; the roots beside it start at its edge).
+pub const PARTING_HALF_WIDTH: f32 = 0.006;
+
+/// Roots this close (decimetres, base mesh) to the parting over the front of the head start
+/// at its edge instead: the hair on each side begins in a line along the parting (scattered
+/// roots left the painted scalp showing between the cards' square ends, in steps).
+const PARTING_EDGE_BAND: f32 = 0.035;
+
+/// `root` moved sideways to the edge of the parting at `parting` (its `x`, base mesh), on its
+/// own side, when it lies within [`PARTING_EDGE_BAND`] of it over the front of the head
+/// (fully from `z` = 0.4, not at all behind 0.2, where the parting fades out).
+fn to_parting_edge(root: Root, parting: Option<f32>) -> Root {
+    let Some(x) = parting else { return root };
+    let from = root.rest.x - x;
+    let front = smooth(0.2, 0.4, root.rest.z);
+    if from.abs() >= PARTING_EDGE_BAND || front == 0.0 {
+        return root;
+    }
+    let edge = 1.5 * PARTING_HALF_WIDTH * if from < 0.0 { -1.0 } else { 1.0 };
+    let shift = Vec3::X * ((edge - from) * front);
+    Root { position: root.position + shift, rest: root.rest + shift, ..root }
+}
+
+/// Cards within this height (decimetres) of the skin lie on it and hide it.
+const COVER_HEIGHT: f32 = 0.1;
+/// How far (decimetres) beyond a lying card's edge the skin counts as under hair: gaps
+/// narrower than twice this between cards show hair, not skin (slivers of bare temple).
+const COVER_REACH: f32 = 0.022;
+/// Skin below this height (base mesh, under the eyes) is never taken as under hair: the
+/// cheeks and jaw beside hanging hair stay skin.
+const COVER_LOW: f32 = 7.2;
+/// The grid (cell edge, decimetres) in which skin vertices are looked up.
+const COVER_CELL: f32 = 0.1;
+
+/// How much hair lies over each skin vertex (`skin` in the head map's space): 1 under a card
+/// lying on the temples, forehead or scalp (within [`COVER_HEIGHT`]) and in gaps up to
+/// [`COVER_REACH`] beside it, fading to 0 beyond; never on the ears. The skin there is painted
+/// as hair, so that the narrow gaps between cards show hair, as between real locks.
+/// `rows_per_card`: the rows of each card, in order. The largest cover wins, so the result
+/// does not depend on the order the cards are visited.
+fn skin_under_cards(rows: &[CardRow], rows_per_card: usize, skin: &[Vec3], ears: &[f32], head: &HeadMap) -> Vec<f32> {
+    let mut cover = vec![0.0f32; skin.len()];
+    let grid = VertexGrid::new(skin, COVER_CELL);
+    for card in rows.chunks_exact(rows_per_card.max(2)) {
+        for pair in card.windows(2) {
+            let [a, b] = [pair[0], pair[1]];
+            if !(a.on_head && head.height(a.point) < COVER_HEIGHT && head.height(b.point) < COVER_HEIGHT) {
+                continue;
+            }
+            let reach = 0.5 * (a.half + b.half) + COVER_REACH;
+            grid.near_segment(a.point, b.point, reach, |v, d| {
+                let p = skin[v];
+                if p.y < COVER_LOW {
+                    return;
+                }
+                let ear = ears.get(v).copied().unwrap_or(0.0);
+                let w = (1.0 - smooth(reach - COVER_REACH, reach, d)) * (1.0 - ear);
+                cover[v] = cover[v].max(w);
+            });
+        }
+    }
+    cover
+}
+
+/// Skin vertices binned in a grid of cubes, for finding those near a segment.
+struct VertexGrid<'a> {
+    points: &'a [Vec3],
+    origin: Vec3,
+    cell: f32,
+    dims: [usize; 3],
+    /// Vertex indices per cell, cell `(i, j, k)` at `(i * dims[1] + j) * dims[2] + k`.
+    cells: Vec<Vec<u32>>,
+}
+
+impl<'a> VertexGrid<'a> {
+    fn new(points: &'a [Vec3], cell: f32) -> VertexGrid<'a> {
+        let (low, high) = points.iter().fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(l, h), &p| (l.min(p), h.max(p)));
+        let low = if low.is_finite() { low } else { Vec3::ZERO };
+        let span = (high - low).max(Vec3::ZERO);
+        let dims = [span.x, span.y, span.z].map(|s| (s / cell) as usize + 1);
+        let mut grid = VertexGrid { points, origin: low, cell, dims, cells: vec![Vec::new(); dims[0] * dims[1] * dims[2]] };
+        for (v, &p) in points.iter().enumerate() {
+            let index = grid.index(grid.coords(p));
+            grid.cells[index].push(v as u32);
+        }
+        grid
+    }
+
+    fn coords(&self, p: Vec3) -> [usize; 3] {
+        let c = (p - self.origin) / self.cell;
+        let at = |x: f32, n: usize| (x.max(0.0) as usize).min(n - 1);
+        [at(c.x, self.dims[0]), at(c.y, self.dims[1]), at(c.z, self.dims[2])]
+    }
+
+    fn index(&self, [i, j, k]: [usize; 3]) -> usize {
+        (i * self.dims[1] + j) * self.dims[2] + k
+    }
+
+    /// Calls `found(vertex, distance)` for every vertex within `reach` of the segment `a`–`b`.
+    fn near_segment(&self, a: Vec3, b: Vec3, reach: f32, mut found: impl FnMut(usize, f32)) {
+        let [i0, j0, k0] = self.coords(a.min(b) - Vec3::splat(reach));
+        let [i1, j1, k1] = self.coords(a.max(b) + Vec3::splat(reach));
+        let ab = b - a;
+        let length_squared = ab.length_squared().max(1e-12);
+        for i in i0..=i1 {
+            for j in j0..=j1 {
+                for k in k0..=k1 {
+                    for &v in &self.cells[self.index([i, j, k])] {
+                        let p = self.points[v as usize];
+                        let t = ((p - a).dot(ab) / length_squared).clamp(0.0, 1.0);
+                        let d = (p - (a + ab * t)).length_squared();
+                        if d < reach * reach {
+                            found(v as usize, d.sqrt());
+                        }
+                    }
+                }
+            }
+        }
+    }
 }
 
 /// Where (`x`, base mesh) the hair parts over the front of the head, if it does.
@@ -783,6 +914,14 @@ pub fn parting_x(parting: Parting) -> Option<f32> {
         Parting::Centre => Some(0.0),
         Parting::None => None,
     }
+}
+
+/// The direction `identity`'s hair is combed over the scalp at `rest` (base mesh), tangent
+/// to the sphere about the head's centre: the painted scalp under the cards is lit along it.
+pub fn comb_at(identity: &Identity, rest: Vec3) -> Vec3 {
+    let gather = style_shape_uncurled(identity.hair_style, identity.hair_texture).gather;
+    let normal = (rest - HEAD_CENTRE).normalize_or(Vec3::Y);
+    comb_direction(&Root { position: rest, normal, rest, vertex: 0 }, identity.parting, gather)
 }
 
 /// The direction hair is combed at a root (tangent to the scalp).
@@ -1141,5 +1280,61 @@ mod tests {
         }
         let (own, lit) = (own / pairs as f32, lit / pairs as f32);
         assert!(lit < 0.5 * own, "neighbouring cards lit {lit:.1} degrees apart (their own directions {own:.1})");
+    }
+
+    /// Over the front of the head, straight hair starts in a line on each side of its parting:
+    /// no root lies in the parting's line of scalp or scattered just beside it (between the
+    /// cards' ends, the painted scalp showed there in steps).
+    #[test]
+    fn straight_hair_starts_at_the_partings_edge() {
+        let model = FaceModel::embedded();
+        for id in ["wf1", "saf1", "eaf1"] {
+            let (identity, posed) = neutral(id);
+            let shape = style_shape(identity.hair_style, identity.hair_texture);
+            let roots = sample_roots(model, &identity, &posed.neutral, &shape);
+            let parting = parting_x(identity.parting).unwrap();
+            let front: Vec<f32> = roots.iter().filter(|r| r.rest.z > 0.4).map(|r| (r.rest.x - parting).abs()).collect();
+            let at_edge = front.iter().filter(|d| (**d - 1.5 * PARTING_HALF_WIDTH).abs() < 1e-5).count();
+            let scattered = front.iter().filter(|d| (**d - 1.5 * PARTING_HALF_WIDTH).abs() >= 1e-5 && **d < PARTING_EDGE_BAND).count();
+            assert!(at_edge >= 20 && scattered == 0, "{id}: {at_edge} roots at the parting's edge, {scattered} scattered beside it");
+        }
+    }
+
+    /// The skin under hair lying on the head is taken as covered where cards lie on it and in
+    /// the narrow gaps beside them, never on the ears or below the eyes, and not far from the
+    /// cards (wf1: 252 skin vertices covered, the 200 under a lying card's footprint fully).
+    #[test]
+    fn skin_is_covered_under_and_between_lying_cards_only() {
+        let model = FaceModel::embedded();
+        let (identity, posed) = neutral("wf1");
+        let hair = HairModel::new(model, &identity, &posed.neutral);
+        let skin: Vec<Vec3> = posed.neutral[..model.part(Part::Skin).vertices.end as usize].iter().map(|&p| p - hair.offset).collect();
+        let ears = model.region("ears").unwrap();
+        assert_eq!(hair.skin_cover.len(), skin.len());
+        let covered: Vec<usize> = (0..skin.len()).filter(|&v| hair.skin_cover[v] > 0.0).collect();
+        assert!(covered.len() >= 200, "{} skin vertices under hair", covered.len());
+        assert!(covered.iter().all(|&v| skin[v].y >= COVER_LOW && ears[v] < 1.0), "cover on the ears or the face below the eyes");
+        // Each covered vertex has a lying card within reach, and the vertices inside a lying
+        // card's footprint are fully covered.
+        let rows_per_card = hair.triangles_per_strand as usize / 2 + 1;
+        let lying: Vec<(Vec3, Vec3, f32)> = hair
+            .rows
+            .chunks_exact(rows_per_card)
+            .flat_map(|card| card.windows(2).map(|w| (w[0], w[1])))
+            .filter(|(a, b)| a.on_head && hair.head.height(a.point) < COVER_HEIGHT && hair.head.height(b.point) < COVER_HEIGHT)
+            .map(|(a, b)| (a.point, b.point, 0.5 * (a.half + b.half)))
+            .collect();
+        let nearest = |p: Vec3| lying.iter().map(|&(a, b, half)| (segment_distance(p, a, b) - half).max(0.0)).fold(f32::INFINITY, f32::min);
+        for &v in covered.iter().step_by(7) {
+            assert!(nearest(skin[v]) < COVER_REACH + 1e-4, "a vertex {} beyond any card's edge is covered", nearest(skin[v]));
+        }
+        let inside = (0..skin.len()).filter(|&v| skin[v].y >= COVER_LOW && ears[v] == 0.0 && nearest(skin[v]) == 0.0).collect::<Vec<_>>();
+        assert!(inside.len() >= 150 && inside.iter().all(|&v| hair.skin_cover[v] == 1.0), "{} vertices under lying cards", inside.len());
+    }
+
+    fn segment_distance(p: Vec3, a: Vec3, b: Vec3) -> f32 {
+        let ab = b - a;
+        let t = ((p - a).dot(ab) / ab.length_squared().max(1e-12)).clamp(0.0, 1.0);
+        (p - (a + ab * t)).length()
     }
 }

@@ -431,7 +431,8 @@ impl<'a> FaceShader<'a> {
     fn shade_skin(&self, f: &Fragment) -> Vec3 {
         let rest = self.rest(f);
         let identity = self.identity;
-        let painted = self.maps.at(f);
+        let mut painted = self.maps.at(f);
+        painted.hair = painted.hair.max(self.under_hair(f));
         let lips = smoothstep(0.3, 0.7, painted.lips);
         let mouth = painted.inside_mouth;
 
@@ -505,6 +506,12 @@ impl<'a> FaceShader<'a> {
         let surface = Surface { wrap: 0.35 * (1.0 - hair), specular, shininess };
         let mut colour = self.lit_reached(f, normal, albedo, surface, reach);
         colour += self.subsurface_bleed(normal, albedo, reach) * (1.0 - hair);
+        if hair > 0.85 && self.hair.is_some() && self.combed() {
+            let (as_hair, parting) = self.scalp_lit_as_hair(f, rest, reach);
+            // Only where the hair is whole: its soft fringe over the skin stays lit as skin (lit
+            // as hair, it was a pale haze over the forehead).
+            colour = colour.lerp(as_hair, smoothstep(0.85, 1.0, hair) * (1.0 - parting));
+        }
         // The mouth interior is dark, more so the deeper it lies behind the lips.
         if mouth > 0.0 {
             let depth = (1.52 - rest.z).max(0.0);
@@ -512,6 +519,18 @@ impl<'a> FaceShader<'a> {
             colour = colour.lerp(interior, (mouth * 1.5).min(1.0));
         }
         colour
+    }
+
+    /// How much of the hair cards lying on the skin covers skin fragment `f`
+    /// ([`super::hair::HairModel::skin_cover`]); 0 without hair.
+    fn under_hair(&self, f: &Fragment) -> f32 {
+        match self.hair {
+            Some(hair) => {
+                let [a, b, c] = f.vertex.map(|v| hair.model.skin_cover.get(v as usize).copied().unwrap_or(0.0));
+                a * f.barycentric.x + b * f.barycentric.y + c * f.barycentric.z
+            }
+            None => 0.0,
+        }
     }
 
     /// Pores and the lines of age at rest (crow's feet, forehead, nasolabial folds, deeper
@@ -557,7 +576,7 @@ impl<'a> FaceShader<'a> {
     }
 
     /// Hair: Kajiya–Kay lighting of the strand direction (diffuse across the strand, two
-    /// highlights along it, the second tinted by the hair), fine fibres across each card,
+    /// highlights along it, the second tinted by the hair, both in streaks), fine fibres across each card,
     /// darker near the roots and inside the volume.
     fn shade_hair(&self, f: &Fragment, hair: &Hair) -> Vec3 {
         let model = &hair.model;
@@ -574,13 +593,20 @@ impl<'a> FaceShader<'a> {
         // fibres and dark roots read as hard stripes, a card as a plank).
         let fibres = 0.85 + 0.15 * value_noise(Vec3::new(f.uv.x * FIBRE_NOISE_ACROSS, f.uv.y * 4.0, strand as f32 * 1.618));
         let rooted = 0.8 + 0.2 * smoothstep(0.0, 0.3, f.uv.y);
-        let albedo = pigment * tone * fibres * rooted;
-        let tangent = f.normal;
-        let view = f.view_dir;
+        // The highlights break into streaks along the strand (fibres catching the light
+        // together), so that a card's sheen does not end at its edges as a lit plank.
+        let streaks = 0.35 + 1.3 * value_noise(Vec3::new(f.uv.x * HIGHLIGHT_STREAKS_ACROSS, f.uv.y * 3.0, strand as f32 * 2.718));
+        let look = HairLook { albedo: pigment * tone * fibres * rooted, pigment, fibres, streaks, rooted };
+        self.lit_hair(&look, f.normal, f.view_dir, self.interpolate(&self.hair_key_light, f))
+    }
+
+    /// Hair of `look` running along `tangent`, seen along `view`, reached by `key_reaches` of
+    /// the key light: Kajiya–Kay diffuse across the strand and two highlights along it.
+    fn lit_hair(&self, look: &HairLook, tangent: Vec3, view: Vec3, key_reaches: f32) -> Vec3 {
+        let HairLook { albedo, pigment, fibres, streaks, rooted } = *look;
         // Coils scatter light every way along a strand: tightly coiled hair has little sheen.
         let sheen = if self.identity.hair_texture == HairTexture::Coiled { 0.3 } else { 1.0 };
         let Lighting { lights, sky, ground, shadow_floor } = &self.lighting;
-        let key_reaches = self.interpolate(&self.hair_key_light, f);
         let mut colour = albedo * sky.lerp(*ground, 0.5) * 1.2;
         for (n, light) in lights.iter().enumerate() {
             let reach = if n == 0 { shadow_floor + (1.0 - shadow_floor) * key_reaches } else { 1.0 };
@@ -593,12 +619,30 @@ impl<'a> FaceShader<'a> {
                 let half = (light.direction + view).normalize();
                 let t_h = tangent.dot(half);
                 let along = (1.0 - t_h * t_h).max(0.0).sqrt();
-                let primary = lobe_power(along, 48.0) * 0.09 * sheen;
-                let secondary = lobe_power(along, 12.0) * 0.12 * fibres * sheen;
+                let primary = lobe_power(along, HAIR_LOBES[0]) * 0.072 * sheen * streaks;
+                let secondary = lobe_power(along, HAIR_LOBES[1]) * 0.12 * fibres * sheen * streaks;
                 colour += light.colour * (Vec3::splat(primary) + pigment * 2.0 * secondary) * reach * rooted;
             }
         }
         colour
+    }
+
+    /// Whether the person's hair is combed (straight or wavy: its cards on the scalp are lit
+    /// along the comb, [`super::hair::comb_at`]); curls and coils keep their own directions,
+    /// and the scalp between them stays lit as skin.
+    fn combed(&self) -> bool {
+        matches!(self.identity.hair_texture, HairTexture::Straight | HairTexture::Wavy)
+    }
+
+    /// The painted scalp at skin fragment `f` (rest position `rest`, reached by `reach` of the
+    /// key light) lit as hair combed along the scalp there, as the cards over it are: lit as
+    /// skin it was darker and redder than they are, and showed between their ends in steps.
+    fn scalp_lit_as_hair(&self, f: &Fragment, rest: Vec3, reach: f32) -> (Vec3, f32) {
+        let paint = scalp_paint(self.identity, rest);
+        let look = HairLook { albedo: paint.hair, pigment: hair_pigment(self.identity, self.identity.hair_grey), fibres: 0.92, streaks: paint.streaks, rooted: 0.9 };
+        let comb = super::hair::comb_at(self.identity, rest);
+        let tangent = (comb - f.normal * comb.dot(f.normal)).normalize_or(comb);
+        (self.lit_hair(&look, tangent, f.view_dir, reach), paint.parting)
     }
 
     /// The neck below the cut and the crew-neck top over the shoulders.
@@ -932,6 +976,26 @@ fn beard_mask(rest: Vec3) -> f32 {
 /// that grey one by one).
 const FIBRE_NOISE_ACROSS: f32 = 1.5 * FIBRES_PER_CARD;
 
+/// What a bit of hair looks like before it is lit: its albedo, its pigment (tinting the
+/// second highlight), and the fibre, streak and root factors of [`FaceShader::lit_hair`].
+#[derive(Clone, Copy)]
+struct HairLook {
+    albedo: Vec3,
+    pigment: Vec3,
+    fibres: f32,
+    streaks: f32,
+    rooted: f32,
+}
+
+/// Cells of highlight streaks across one hair card (coarser than the fibre noise: bundles of
+/// fibres catch the light together).
+const HIGHLIGHT_STREAKS_ACROSS: f32 = 0.7 * FIBRE_NOISE_ACROSS;
+
+/// The exponents of the hair's two highlights (Kajiya–Kay): broad enough that neighbouring
+/// cards at slightly different angles share a highlight (at 48 and 12 each card lit up or
+/// not on its own, a patchwork of planks over the crown).
+const HAIR_LOBES: [f32; 2] = [20.0, 8.0];
+
 /// The pigment of `identity`'s hair with `grey` (0..1) of it white: the pigmented fibres of
 /// greying hair lose some of their colour too.
 fn hair_pigment(identity: &Identity, grey: f32) -> Vec3 {
@@ -939,29 +1003,40 @@ fn hair_pigment(identity: &Identity, grey: f32) -> Vec3 {
     faded.lerp(Vec3::new(0.4, 0.4, 0.38), grey)
 }
 
-/// Half-width (decimetres, base mesh) of the line of scalp where the hair parts.
-const PARTING_HALF_WIDTH: f32 = 0.006;
 
-/// The scalp where hair grows, painted as the hair seen between and under the cards: its
-/// colour (greying included) a little darker, in fine streaks along the comb direction
-/// (sideways from the parting over the front of the head, down behind), and a thin line of
-/// the scalp's own `skin` where the hair parts. Gaps between cards show hair, not skin.
-fn scalp_hair(identity: &Identity, rest: Vec3, skin: Vec3) -> Vec3 {
+/// The scalp where hair grows, painted as the hair seen between and under the cards.
+struct ScalpPaint {
+    /// The hair's colour (greying included), a little darker, in fine streaks along the comb
+    /// direction (sideways from the parting over the front of the head, down behind).
+    hair: Vec3,
+    /// The highlights' streaks there (as [`HIGHLIGHT_STREAKS_ACROSS`] on a card).
+    streaks: f32,
+    /// How much of the scalp's own skin shows (a thin line where straight hair parts).
+    parting: f32,
+}
+
+fn scalp_paint(identity: &Identity, rest: Vec3) -> ScalpPaint {
     let parting = super::hair::parting_x(identity.parting);
     // How far the hair over this point is combed sideways (from the parting) rather than back.
     let sideways = if parting.is_some() { smoothstep(0.0, 0.7, rest.z) } else { 0.0 };
     let across = |back: f32, side: f32| back + (side - back) * sideways;
     let q = Vec3::new(rest.x * across(220.0, 12.0), rest.y * across(12.0, 90.0), rest.z * across(30.0, 220.0));
-    let hair = hair_pigment(identity, identity.hair_grey) * (0.55 + 0.3 * value_noise(q));
+    let hair = hair_pigment(identity, identity.hair_grey) * (0.63 + 0.35 * value_noise(q));
+    let streaks = 0.35 + 1.3 * value_noise(q * 0.7 + Vec3::splat(7.0));
     let curled = matches!(identity.hair_texture, HairTexture::Curly | HairTexture::Coiled);
-    let Some(x) = parting.filter(|_| !curled) else { return hair };
-    let line = (1.0 - smoothstep(0.5 * PARTING_HALF_WIDTH, PARTING_HALF_WIDTH, (rest.x - x).abs())) * smoothstep(0.2, 0.6, rest.z);
-    if line == 0.0 {
-        return hair;
-    }
+    let Some(x) = parting.filter(|_| !curled) else { return ScalpPaint { hair, streaks, parting: 0.0 } };
+    let half = super::hair::PARTING_HALF_WIDTH;
+    let line = (1.0 - smoothstep(0.5 * half, half, (rest.x - x).abs())) * smoothstep(0.2, 0.6, rest.z);
     // The parting runs through the hair, not beyond the roots into the painted fringe.
-    let rooted = super::hair::scalp_mask(rest, identity.hairline, 0.5);
-    hair.lerp(skin * 0.85, 0.75 * line * rooted)
+    let parting = if line == 0.0 { 0.0 } else { 0.75 * line * super::hair::scalp_mask(rest, identity.hairline, 0.5) };
+    ScalpPaint { hair, streaks, parting }
+}
+
+/// The painted scalp's albedo over `skin`: the hair, with the parting's line of skin.
+/// Gaps between cards show hair, not skin.
+fn scalp_hair(identity: &Identity, rest: Vec3, skin: Vec3) -> Vec3 {
+    let paint = scalp_paint(identity, rest);
+    paint.hair.lerp(skin * 0.85, paint.parting)
 }
 
 // ---- furrows and bulges: height fields in mirrored rest space (x ≥ 0) ----
@@ -1222,7 +1297,7 @@ mod tests {
         assert!(luma(hair_pigment(&grey, grey.hair_grey)) > 1.3 * luma(grey.hair));
         let mut straight = table.get("wf1").unwrap().clone();
         let parting = Vec3::new(0.0, 8.3, 0.8);
-        let beside = parting + Vec3::X * 3.0 * PARTING_HALF_WIDTH;
+        let beside = parting + Vec3::X * 3.0 * crate::engine::hair::PARTING_HALF_WIDTH;
         assert!(scalp_hair(&straight, parting, skin).distance(skin * 0.85) < 0.5 * scalp_hair(&straight, beside, skin).distance(skin * 0.85));
         straight.hair_texture = HairTexture::Curly;
         assert!(scalp_hair(&straight, parting, skin).distance(skin * 0.85) > 0.3);
