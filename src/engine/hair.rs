@@ -2,7 +2,8 @@
 //! (ribbons) narrowing to a point over their last part (each strand from its own share of its
 //! length, so tips make a soft, uneven edge), generated from the identity's hair data (style,
 //! texture, parting, hairline); no third-party hair assets. Curly and coiled hair grows more,
-//! narrower strands than straight hair; neighbouring strands share a lock's tone.
+//! narrower strands than straight hair; neighbouring strands share a lock's tone and, when
+//! wavy, its waves.
 //!
 //! In: the face model, the identity and its neutral head. Out: [`HairModel`] (cached per
 //! person): card vertices in the neutral head's space with the strand direction (tangent) and
@@ -129,14 +130,42 @@ fn curl(texture: HairTexture) -> (f32, f32) {
 }
 
 /// Points per turn of a curl that a strand needs to be drawn as a curve, not a zigzag; a
-/// strand has at most twice its style's segments to get them.
-const POINTS_PER_TURN: f32 = 5.0;
+/// strand has at most twice its style's segments to get them. Waves get more: a wave of five
+/// straight pieces read as crumpled foil.
+fn points_per_turn(texture: HairTexture) -> f32 {
+    if texture == HairTexture::Wavy { 8.0 } else { 5.0 }
+}
+
+/// Where along its turn (0..1) the curl of strand `n`, rooted at `rest` (base mesh), starts.
+/// Waves start with their lock ([`LOCK_SIZE`]), a little apart strand by strand, so a lock
+/// waves as one (each strand waving on its own made a crinkled tangle); curls and coils turn
+/// each on its own.
+fn curl_phase(texture: HairTexture, rest: Vec3, n: u32) -> f32 {
+    if texture != HairTexture::Wavy {
+        return hash01(n, 22, 0);
+    }
+    let cell = (rest / LOCK_SIZE).floor();
+    hash01(cell.x as i32 as u32 ^ 0x27d4_eb2d, cell.y as i32 as u32, cell.z as i32 as u32) + 0.12 * hash01(n, 22, 0)
+}
+
+/// The unit offset of a curl at `angle` around a strand running along `direction` at `p`:
+/// curls and coils turn round the strand (a helix); waves sway from side to side, across the
+/// strand and along the head's surface (a helix of a wave's width read as a twisting ribbon).
+fn curl_offset(texture: HairTexture, direction: Vec3, p: Vec3, angle: f32) -> Vec3 {
+    if texture == HairTexture::Wavy {
+        let outward = (p - HEAD_CENTRE).normalize_or(Vec3::Z);
+        let across = direction.cross(outward).normalize_or_zero();
+        return across * (std::f32::consts::SQRT_2 * angle.sin());
+    }
+    let (u, v) = orthonormal(direction);
+    u * angle.cos() + v * angle.sin()
+}
 
 fn style_shape(style: HairStyle, texture: HairTexture) -> StyleShape {
     let shape = style_shape_uncurled(style, texture);
     let longest = shape.length_top.max(shape.length_back) * 1.15;
     let (radius, period) = curl(texture);
-    let wanted = if radius > 0.0 { (longest / period * POINTS_PER_TURN).ceil() as usize } else { 0 };
+    let wanted = if radius > 0.0 { (longest / period * points_per_turn(texture)).ceil() as usize } else { 0 };
     // Curls and coils are drawn as more, narrower strands: a card as wide as the curl turning
     // round it reads as a twisting paper ribbon, and coils' short segments as confetti.
     let (narrower, denser) = match texture {
@@ -954,7 +983,7 @@ fn grow(root: &Root, n: u32, identity: &Identity, shape: &StyleShape, head: &Hea
     let mut direction = (comb * (1.0 - shape.lift) + root.normal * shape.lift).normalize();
     // Each strand sits at its own depth in the hair's volume.
     let layer = 0.008 + 0.05 * hash01(n, 21, 0) * (length / (length + 0.3));
-    let phase = std::f32::consts::TAU * hash01(n, 22, 0);
+    let phase = std::f32::consts::TAU * curl_phase(texture, root.rest, n);
     let (curl_radius, curl_period) = curl(texture);
     let mut points = vec![root.position];
     let mut centre = root.position;
@@ -983,10 +1012,9 @@ fn grow(root: &Root, n: u32, identity: &Identity, shape: &StyleShape, head: &Hea
         centre = next;
         // Curl: an offset turning around the strand's direction.
         let travelled = step * k as f32;
-        let (u, v) = orthonormal(direction);
         let angle = phase + std::f32::consts::TAU * travelled / curl_period;
         let grow_in = (travelled / 0.1).min(1.0);
-        let offset = (u * angle.cos() + v * angle.sin()) * curl_radius * grow_in;
+        let offset = curl_offset(texture, direction, centre, angle) * curl_radius * grow_in;
         let point = head.keep_outside(centre + offset, 0.004);
         // A strand that hangs below the ears and that the jaw, neck or shoulders would make
         // jump ends where it is (its remaining points collapse there), rather than being drawn
@@ -1336,5 +1364,29 @@ mod tests {
         let ab = b - a;
         let t = ((p - a).dot(ab) / ab.length_squared().max(1e-12)).clamp(0.0, 1.0);
         (p - (a + ab * t)).length()
+    }
+
+    /// Wavy hair waves lock by lock: strands rooted in one lock start their waves within an
+    /// eighth of a turn of each other, different locks anywhere; and a wave sways across the
+    /// strand along the head's surface (not out of it, not round the strand as curls do).
+    #[test]
+    fn wavy_hair_waves_lock_by_lock_along_the_head() {
+        let root = Vec3::new(0.31, 8.2, 0.52);
+        let phases: Vec<f32> = (0..40).map(|n| curl_phase(HairTexture::Wavy, root + Vec3::splat(0.001 * (n % 5) as f32), n)).collect();
+        let spread = |t: &[f32]| t.iter().copied().fold(f32::MIN, f32::max) - t.iter().copied().fold(f32::MAX, f32::min);
+        assert!(spread(&phases) <= 0.125, "one lock's waves start {} of a turn apart", spread(&phases));
+        let locks: Vec<f32> = (0..40).map(|n| curl_phase(HairTexture::Wavy, Vec3::new(0.1 * n as f32, 8.2, 0.5), 0)).collect();
+        assert!(spread(&locks) > 0.6, "locks' waves start only {} of a turn apart", spread(&locks));
+        let curls: Vec<f32> = (0..40).map(|n| curl_phase(HairTexture::Curly, root, n)).collect();
+        assert!(spread(&curls) > 0.6, "curls in one lock turn together");
+        let (p, down) = (Vec3::new(0.6, 7.0, 0.1), Vec3::NEG_Y);
+        let outward = (p - HEAD_CENTRE).normalize();
+        for k in 0..16 {
+            let angle = k as f32 * 0.4;
+            let wave = curl_offset(HairTexture::Wavy, down, p, angle);
+            assert!(wave.dot(outward).abs() < 1e-5 && wave.dot(down).abs() < 1e-5, "a wave leaves the head's surface: {wave}");
+            let curl = curl_offset(HairTexture::Curly, down, p, angle);
+            assert!((curl.length() - 1.0).abs() < 1e-5 && curl.dot(down).abs() < 1e-5);
+        }
     }
 }
