@@ -30,7 +30,7 @@ pub fn parquet_to_csv(input: &Path, _output: &Path) -> Result<u64, InputError> {
 mod tests {
     #[test]
     fn parquet_input_says_to_rebuild_with_the_feature() {
-        let (catalog, emotions) = (crate::facs::Catalog::built_in(), crate::facs::EmotionTable::built_in());
+        let catalog = crate::facs::Catalog::built_in();
         let e = crate::analysis::manifest::Manifest::read(std::path::Path::new("m.parquet"), catalog).unwrap_err();
         assert_eq!(
             e.to_string(),
