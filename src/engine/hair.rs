@@ -15,11 +15,11 @@
 //!
 //! Growth: each root is a fixed point of a scalp triangle (sampled by area and the scalp mask
 //! with fixed hashes, in triangle order; next to a parting, at its edge); a strand starts along
-//! the comb direction (away from the parting, back and down at the back of the head), bends under gravity, takes the curl of
-//! its texture and is kept outside the head (a spherical height map of the skin), outside the
-//! face and above the shoulders. Hanging hair is cut to a line (strands rooted low at the back
-//! and sides grow longer) and fans out over the back below the ears, so it fills the space
-//! beside the neck.
+//! the comb direction (away from the parting, back and down at the back of the head), bends
+//! under gravity, takes the curl of its texture and is kept outside the head (a spherical
+//! height map of the skin), outside the face and above the shoulders. Hanging hair is cut to a
+//! line (strands rooted low at the back and sides grow longer) and fans out over the back below
+//! the ears, so it fills the space beside the neck.
 //! Invariant: a pure function of its inputs in a fixed order: the same person gives the same
 //! cards, bytes and all, on any thread count.
 
@@ -144,8 +144,8 @@ fn curl_phase(texture: HairTexture, rest: Vec3, n: u32) -> f32 {
     if texture != HairTexture::Wavy {
         return hash01(n, 22, 0);
     }
-    let cell = (rest / LOCK_SIZE).floor();
-    hash01(cell.x as i32 as u32 ^ 0x27d4_eb2d, cell.y as i32 as u32, cell.z as i32 as u32) + 0.12 * hash01(n, 22, 0)
+    let [x, y, z] = lock_cell(rest);
+    hash01(x ^ 0x27d4_eb2d, y, z) + 0.12 * hash01(n, 22, 0)
 }
 
 /// The unit offset of a curl at `angle` around a strand running along `direction` at `p`:
@@ -459,9 +459,16 @@ const LOCK_SIZE: f32 = 0.09;
 /// The brightness factor of the strand `n` rooted at `rest` (base mesh): its lock's tone with
 /// a little of its own, 0.91..1.09 (hard strand-to-strand differences read as stripes).
 fn lock_tone(rest: Vec3, n: u32) -> f32 {
-    let cell = (rest / LOCK_SIZE).floor();
-    let lock = hash01(cell.x as i32 as u32, cell.y as i32 as u32 ^ 0x5bd1_e995, cell.z as i32 as u32);
+    let [x, y, z] = lock_cell(rest);
+    let lock = hash01(x, y ^ 0x5bd1_e995, z);
     0.91 + 0.12 * lock + 0.06 * hash01(n, 8, 2)
+}
+
+/// The lock (cell of [`LOCK_SIZE`] on the scalp) of a root at `rest` (base mesh), as integers
+/// to hash.
+fn lock_cell(rest: Vec3) -> [u32; 3] {
+    let cell = (rest / LOCK_SIZE).floor();
+    [cell.x as i32 as u32, cell.y as i32 as u32, cell.z as i32 as u32]
 }
 
 /// The share of white fibres in strand `n` of a person whose hair is `grey` (0..1) grey:
@@ -860,10 +867,12 @@ fn skin_under_cards(rows: &[CardRow], rows_per_card: usize, skin: &[Vec3], ears:
     for card in rows.chunks_exact(rows_per_card.max(2)) {
         for pair in card.windows(2) {
             let [a, b] = [pair[0], pair[1]];
-            if !(a.on_head && head.height(a.point) < COVER_HEIGHT && head.height(b.point) < COVER_HEIGHT) {
+            let reach = 0.5 * (a.half + b.half) + COVER_REACH;
+            // Beneath the lowest skin it may cover, or standing off the head, a card covers none.
+            let below = a.point.y.max(b.point.y) < COVER_LOW - reach;
+            if below || !(a.on_head && head.height(a.point) < COVER_HEIGHT && head.height(b.point) < COVER_HEIGHT) {
                 continue;
             }
-            let reach = 0.5 * (a.half + b.half) + COVER_REACH;
             grid.near_segment(a.point, b.point, reach, |v, d| {
                 let p = skin[v];
                 if p.y < COVER_LOW {

@@ -476,8 +476,10 @@ impl<'a> FaceShader<'a> {
             albedo = albedo.lerp(identity.hair * 0.6 + identity.skin * 0.25, beard * (0.35 + 0.5 * dots));
         }
         let hair = painted.hair;
-        if hair > 0.0 {
-            albedo = albedo.lerp(scalp_hair(identity, rest, albedo), hair);
+        // The painted scalp, worked out once: its albedo here, its lighting as hair below.
+        let scalp = (hair > 0.0).then(|| scalp_paint(identity, rest));
+        if let Some(paint) = &scalp {
+            albedo = albedo.lerp(paint.over(albedo), hair);
         }
         let brow = brow_mask(rest);
         if brow != 0.0 {
@@ -506,11 +508,11 @@ impl<'a> FaceShader<'a> {
         let surface = Surface { wrap: 0.35 * (1.0 - hair), specular, shininess };
         let mut colour = self.lit_reached(f, normal, albedo, surface, reach);
         colour += self.subsurface_bleed(normal, albedo, reach) * (1.0 - hair);
-        if hair > 0.85 && self.hair.is_some() && self.combed() {
-            let (as_hair, parting) = self.scalp_lit_as_hair(f, rest, reach);
+        if let Some(paint) = scalp.filter(|_| hair > 0.85 && self.hair.is_some() && self.combed()) {
+            let as_hair = self.scalp_lit_as_hair(f, rest, &paint, reach);
             // Only where the hair is whole: its soft fringe over the skin stays lit as skin (lit
             // as hair, it was a pale haze over the forehead).
-            colour = colour.lerp(as_hair, smoothstep(0.85, 1.0, hair) * (1.0 - parting));
+            colour = colour.lerp(as_hair, smoothstep(0.85, 1.0, hair) * (1.0 - paint.parting));
         }
         // The mouth interior is dark, more so the deeper it lies behind the lips.
         if mouth > 0.0 {
@@ -576,8 +578,8 @@ impl<'a> FaceShader<'a> {
     }
 
     /// Hair: Kajiya–Kay lighting of the strand direction (diffuse across the strand, two
-    /// highlights along it, the second tinted by the hair, both in streaks), fine fibres across each card,
-    /// darker near the roots and inside the volume.
+    /// highlights along it, the second tinted by the hair, both in streaks), fine fibres across
+    /// each card, darker near the roots and inside the volume.
     fn shade_hair(&self, f: &Fragment, hair: &Hair) -> Vec3 {
         let model = &hair.model;
         let strand = (f.triangle / model.triangles_per_strand) as usize;
@@ -634,15 +636,14 @@ impl<'a> FaceShader<'a> {
         matches!(self.identity.hair_texture, HairTexture::Straight | HairTexture::Wavy)
     }
 
-    /// The painted scalp at skin fragment `f` (rest position `rest`, reached by `reach` of the
-    /// key light) lit as hair combed along the scalp there, as the cards over it are: lit as
-    /// skin it was darker and redder than they are, and showed between their ends in steps.
-    fn scalp_lit_as_hair(&self, f: &Fragment, rest: Vec3, reach: f32) -> (Vec3, f32) {
-        let paint = scalp_paint(self.identity, rest);
+    /// The painted scalp `paint` at skin fragment `f` (rest position `rest`, reached by `reach`
+    /// of the key light) lit as hair combed along the scalp there, as the cards over it are: lit
+    /// as skin it was darker and redder than they are, and showed between their ends in steps.
+    fn scalp_lit_as_hair(&self, f: &Fragment, rest: Vec3, paint: &ScalpPaint, reach: f32) -> Vec3 {
         let look = HairLook { albedo: paint.hair, pigment: hair_pigment(self.identity, self.identity.hair_grey), fibres: 0.92, streaks: paint.streaks, rooted: 0.9 };
         let comb = super::hair::comb_at(self.identity, rest);
         let tangent = (comb - f.normal * comb.dot(f.normal)).normalize_or(comb);
-        (self.lit_hair(&look, tangent, f.view_dir, reach), paint.parting)
+        self.lit_hair(&look, tangent, f.view_dir, reach)
     }
 
     /// The neck below the cut and the crew-neck top over the shoulders.
@@ -1003,8 +1004,8 @@ fn hair_pigment(identity: &Identity, grey: f32) -> Vec3 {
     faded.lerp(Vec3::new(0.4, 0.4, 0.38), grey)
 }
 
-
 /// The scalp where hair grows, painted as the hair seen between and under the cards.
+#[derive(Clone, Copy)]
 struct ScalpPaint {
     /// The hair's colour (greying included), a little darker, in fine streaks along the comb
     /// direction (sideways from the parting over the front of the head, down behind).
@@ -1032,11 +1033,12 @@ fn scalp_paint(identity: &Identity, rest: Vec3) -> ScalpPaint {
     ScalpPaint { hair, streaks, parting }
 }
 
-/// The painted scalp's albedo over `skin`: the hair, with the parting's line of skin.
-/// Gaps between cards show hair, not skin.
-fn scalp_hair(identity: &Identity, rest: Vec3, skin: Vec3) -> Vec3 {
-    let paint = scalp_paint(identity, rest);
-    paint.hair.lerp(skin * 0.85, paint.parting)
+impl ScalpPaint {
+    /// The painted scalp's albedo over `skin`: the hair, with the parting's line of skin.
+    /// Gaps between cards show hair, not skin.
+    fn over(&self, skin: Vec3) -> Vec3 {
+        self.hair.lerp(skin * 0.85, self.parting)
+    }
 }
 
 // ---- furrows and bulges: height fields in mirrored rest space (x ≥ 0) ----
@@ -1293,14 +1295,14 @@ mod tests {
         let top = Vec3::new(0.4, 8.3, 0.6);
         let skin = Vec3::new(0.8, 0.6, 0.5);
         let luma = |c: Vec3| c.dot(Vec3::splat(1.0 / 3.0));
-        assert!(luma(scalp_hair(&grey, top, skin)) > 0.5 * luma(hair_pigment(&grey, grey.hair_grey)));
+        assert!(luma(scalp_paint(&grey, top).over(skin)) > 0.5 * luma(hair_pigment(&grey, grey.hair_grey)));
         assert!(luma(hair_pigment(&grey, grey.hair_grey)) > 1.3 * luma(grey.hair));
         let mut straight = table.get("wf1").unwrap().clone();
         let parting = Vec3::new(0.0, 8.3, 0.8);
         let beside = parting + Vec3::X * 3.0 * crate::engine::hair::PARTING_HALF_WIDTH;
-        assert!(scalp_hair(&straight, parting, skin).distance(skin * 0.85) < 0.5 * scalp_hair(&straight, beside, skin).distance(skin * 0.85));
+        assert!(scalp_paint(&straight, parting).over(skin).distance(skin * 0.85) < 0.5 * scalp_paint(&straight, beside).over(skin).distance(skin * 0.85));
         straight.hair_texture = HairTexture::Curly;
-        assert!(scalp_hair(&straight, parting, skin).distance(skin * 0.85) > 0.3);
+        assert!(scalp_paint(&straight, parting).over(skin).distance(skin * 0.85) > 0.3);
     }
 
     #[test]
