@@ -528,6 +528,11 @@ struct Root {
 }
 
 impl HairModel {
+    /// Rows of vertices (and of [`CardRow`]s) per card: one more than its segments.
+    fn rows_per_card(&self) -> usize {
+        self.triangles_per_strand as usize / 2 + 1
+    }
+
     /// The hair of `identity`, grown once per person and shared by every frame.
     pub fn cached(model: &FaceModel, identity: &Identity, neutral: &[Vec3]) -> Arc<HairModel> {
         static CACHE: OnceLock<Mutex<BTreeMap<String, Arc<HairModel>>>> = OnceLock::new();
@@ -572,7 +577,7 @@ impl HairModel {
             hair.add_bun(centre, &shape, roots.first().map_or(0, |r| r.vertex), identity.hair_grey);
         }
         let ears = model.region("ears").unwrap_or_default();
-        hair.skin_cover = skin_under_cards(&hair.rows, hair.triangles_per_strand as usize / 2 + 1, &aligned, &ears, &hair.head);
+        hair.skin_cover = skin_under_cards(&hair.rows, hair.rows_per_card(), &aligned, &ears, &hair.head);
         for p in &mut hair.positions {
             *p += offset;
         }
@@ -1200,7 +1205,7 @@ mod tests {
         let model = FaceModel::embedded();
         let (identity, posed) = neutral("wf1");
         let hair = HairModel::new(model, &identity, &posed.neutral);
-        let rows_per_card = hair.triangles_per_strand as usize / 2 + 1;
+        let rows_per_card = hair.rows_per_card();
         let cards: Vec<&[CardRow]> = hair.rows.chunks_exact(rows_per_card).collect();
         assert!(cards.len() > 1000, "{} cards", cards.len());
         for card in &cards {
@@ -1305,11 +1310,11 @@ mod tests {
         assert!(failures.is_empty(), "{}", failures.join("\n"));
     }
 
-    /// Points every tenth of a piece along the middle of every card (in the head map's space).
+    /// Points every tenth of a piece along the middle of every card (its rows' strand points, in
+    /// the head map's space).
     fn strand_centre_points(hair: &HairModel) -> Vec<Vec3> {
-        let rows = hair.triangles_per_strand as usize / 2 + 1;
-        let centres: Vec<Vec3> = hair.positions.chunks_exact(2).map(|pair| (pair[0] + pair[1]) * 0.5 - hair.offset).collect();
-        centres.chunks_exact(rows).flat_map(|strand| strand.windows(2).flat_map(|piece| (0..10).map(move |k| piece[0].lerp(piece[1], k as f32 / 10.0)))).collect()
+        let cards = hair.rows.chunks_exact(hair.rows_per_card());
+        cards.flat_map(|card| card.windows(2).flat_map(|piece| (0..10).map(move |k| piece[0].point.lerp(piece[1].point, k as f32 / 10.0)))).collect()
     }
 
     /// Hair that comes down onto a shoulder ends there: nothing slides out along the
@@ -1402,7 +1407,7 @@ mod tests {
         assert!(covered.iter().all(|&v| skin[v].y >= COVER_LOW && ears[v] < 1.0), "cover on the ears or the face below the eyes");
         // Each covered vertex has a lying card within reach, and the vertices inside a lying
         // card's footprint are fully covered.
-        let rows_per_card = hair.triangles_per_strand as usize / 2 + 1;
+        let rows_per_card = hair.rows_per_card();
         let lying: Vec<(Vec3, Vec3, f32)> = hair
             .rows
             .chunks_exact(rows_per_card)
