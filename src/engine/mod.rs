@@ -218,8 +218,8 @@ pub fn render_posed(posed: &Posed, identity: &Identity, settings: FrameSettings)
     }
     let key = look.light.lighting().lights[0].direction;
     let light_centre = posed.anchor + Vec3::new(0.0, -0.3, 0.0);
-    // The light sees other hair than the camera does.
-    let hair_lit = holder.hair.seen_from(shade::ShadowMap::eye(key, light_centre));
+    // The light sees other hair than the camera does, and its map needs less detail.
+    let hair_lit = holder.hair.shadow_casters(shade::ShadowMap::eye(key, light_centre));
     // Lashes are too thin to cast visible shadows; at shadow-map resolution they would smear.
     let casters: Vec<Triangles> = holder
         .items_with_hair(posed, &hair_lit)
