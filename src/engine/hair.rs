@@ -784,7 +784,7 @@ impl Hair {
             let mut k = first + 1;
             while k < first + rows {
                 let (from, to) = (centre(kept[kept.len() - 1]), centre((k + 1).min(first + rows - 1)));
-                if k + 1 < first + rows && segment_distance_3d(centre(k), from, to) < SHADOW_CHORD {
+                if k + 1 < first + rows && segment_distance(centre(k), from, to) < SHADOW_CHORD {
                     k += 1;
                 }
                 kept.push(k);
@@ -821,7 +821,7 @@ impl Hair {
 const SHADOW_CHORD: f32 = 0.013;
 
 /// The distance from `p` to the segment from `a` to `b`.
-fn segment_distance_3d(p: Vec3, a: Vec3, b: Vec3) -> f32 {
+fn segment_distance(p: Vec3, a: Vec3, b: Vec3) -> f32 {
     let ab = b - a;
     let t = ((p - a).dot(ab) / ab.length_squared().max(1e-12)).clamp(0.0, 1.0);
     (a + ab * t).distance(p)
@@ -1265,7 +1265,7 @@ mod tests {
             let centre = |v: u32| (hair.positions[v as usize] + hair.positions[v as usize + 1]) * 0.5;
             for &[a, c, _] in casters.iter().step_by(2) {
                 for skipped in (a + 2..c).step_by(2) {
-                    let gap = segment_distance_3d(centre(skipped), centre(a), centre(c));
+                    let gap = segment_distance(centre(skipped), centre(a), centre(c));
                     assert!(gap < SHADOW_CHORD, "{id}: row of vertex {skipped} lies {gap} dm from the chord");
                 }
             }
@@ -1522,12 +1522,6 @@ mod tests {
         }
         let inside = (0..skin.len()).filter(|&v| skin[v].y >= COVER_LOW && ears[v] == 0.0 && nearest(skin[v]) == 0.0).collect::<Vec<_>>();
         assert!(inside.len() >= 150 && inside.iter().all(|&v| hair.skin_cover[v] == 1.0), "{} vertices under lying cards", inside.len());
-    }
-
-    fn segment_distance(p: Vec3, a: Vec3, b: Vec3) -> f32 {
-        let ab = b - a;
-        let t = ((p - a).dot(ab) / ab.length_squared().max(1e-12)).clamp(0.0, 1.0);
-        (p - (a + ab * t)).length()
     }
 
     /// Wavy hair waves lock by lock: strands rooted in one lock start their waves within an
