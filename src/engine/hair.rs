@@ -125,6 +125,15 @@ struct StyleShape {
     gather: Option<Vec3>,
 }
 
+impl StyleShape {
+    /// Whether the hair at the sides hangs down over the ears (longer than the 3 cm from the
+    /// side of the scalp to below the ear's top, and not gathered back); shorter hair is cut
+    /// around them.
+    fn hangs_over_ears(&self) -> bool {
+        self.gather.is_none() && self.length_back > 0.3
+    }
+}
+
 /// A texture's curl: the radius and the period (length of strand per turn), decimetres.
 fn curl(texture: HairTexture) -> (f32, f32) {
     match texture {
@@ -212,9 +221,14 @@ fn style_shape_uncurled(style: HairStyle, texture: HairTexture) -> StyleShape {
 /// The spherical height map of the neutral head: the skin's largest distance from
 /// [`HEAD_CENTRE`] in each direction.
 struct HeadMap {
+    /// The surface hair lies on, per cell ([`MAP_POLAR`] × [`MAP_AZIMUTH`]): the skin, the ears
+    /// left out for hair cut around them.
     radius: Vec<f32>,
-    /// Half the face's width in front of the ears, per [`FACE_BAND`] of height from
-    /// [`FACE_LOW`] up: where hair hanging beside the face lies.
+    /// Where the ears stand out of that surface (left out of it): their distance from the
+    /// centre per cell, 0 where there is no ear.
+    ears: Vec<f32>,
+    /// Half the face's width in front of the ears, the ears left out, per [`FACE_BAND`] of
+    /// height from [`FACE_LOW`] up: where hair hanging beside the face lies.
     face_half_width: Vec<f32>,
 }
 
@@ -227,47 +241,18 @@ const FACE_BANDS: usize = 38;
 const FACE_CLEARANCE: f32 = 0.03;
 
 impl HeadMap {
-    fn new(skin: &[Vec3]) -> HeadMap {
-        let mut radius = vec![0.0f32; MAP_POLAR * MAP_AZIMUTH];
-        for &p in skin {
-            let (cell, r) = Self::cell(p);
-            radius[cell] = radius[cell].max(r);
-        }
-        // Fill empty cells from their neighbours until none is left: near the poles the cells
-        // are narrower than the spacing of the vertices, and runs of dozens stay empty (a
-        // surface at the centre there let strands over the crown pass through the skull).
-        while radius.contains(&0.0) && radius.iter().any(|&r| r > 0.0) {
-            let previous = radius.clone();
-            for i in 0..MAP_POLAR {
-                for j in 0..MAP_AZIMUTH {
-                    if previous[i * MAP_AZIMUTH + j] > 0.0 {
-                        continue;
-                    }
-                    let mut best = 0.0f32;
-                    for (di, dj) in [(-1i32, 0i32), (1, 0), (0, -1), (0, 1)] {
-                        let ii = (i as i32 + di).clamp(0, MAP_POLAR as i32 - 1) as usize;
-                        let jj = (j as i32 + dj).rem_euclid(MAP_AZIMUTH as i32) as usize;
-                        best = best.max(previous[ii * MAP_AZIMUTH + jj]);
-                    }
-                    radius[i * MAP_AZIMUTH + j] = best;
-                }
-            }
-        }
-        // Widen each cell to its neighbours' largest value, so that lookups between vertices
-        // do not dip below the surface.
-        let previous = radius.clone();
-        for i in 0..MAP_POLAR {
-            for j in 0..MAP_AZIMUTH {
-                let mut best = previous[i * MAP_AZIMUTH + j];
-                for (di, dj) in [(-1i32, 0i32), (1, 0), (0, -1), (0, 1)] {
-                    let ii = (i as i32 + di).clamp(0, MAP_POLAR as i32 - 1) as usize;
-                    let jj = (j as i32 + dj).rem_euclid(MAP_AZIMUTH as i32) as usize;
-                    best = best.max(previous[ii * MAP_AZIMUTH + jj]);
-                }
-                radius[i * MAP_AZIMUTH + j] = best;
-            }
-        }
-        HeadMap { radius, face_half_width: face_half_widths(skin) }
+    /// `ears`: each skin vertex's weight in the ears' region; `over_ears`: whether the hair
+    /// lies over them (else they are left out of the surface, and hair is cut around them).
+    fn new(skin: &[Vec3], ears: &[f32], over_ears: bool) -> HeadMap {
+        let with_ears = radius_map(skin.iter().copied());
+        let (radius, ears_out) = if over_ears {
+            (with_ears, vec![0.0; MAP_POLAR * MAP_AZIMUTH])
+        } else {
+            let bare = radius_map(skin.iter().enumerate().filter(|&(v, _)| !in_ear(ears, v)).map(|(_, &p)| p));
+            let standing_out = with_ears.iter().zip(&bare).map(|(&w, &b)| if w > b { w } else { 0.0 }).collect();
+            (bare, standing_out)
+        };
+        HeadMap { radius, ears: ears_out, face_half_width: face_half_widths(skin, ears) }
     }
 
     fn cell(p: Vec3) -> (usize, f32) {
@@ -292,6 +277,12 @@ impl HeadMap {
         let r = d.length();
         let target = self.surface(p) + clearance;
         if r <= target { p } else { HEAD_CENTRE + d * ((r + (target - r) * amount) / r.max(1e-6)) }
+    }
+
+    /// Whether `p` lies within the ears where they are left out of the surface.
+    fn in_ears(&self, p: Vec3) -> bool {
+        let (cell, r) = Self::cell(p);
+        r < self.ears[cell]
     }
 
     /// How far `p` is above the skin (decimetres, along the ray from the centre).
@@ -324,17 +315,65 @@ impl HeadMap {
     }
 }
 
+/// The largest distance from [`HEAD_CENTRE`] of `points` in each cell of directions, every
+/// cell filled.
+fn radius_map(points: impl Iterator<Item = Vec3>) -> Vec<f32> {
+    let mut radius = vec![0.0f32; MAP_POLAR * MAP_AZIMUTH];
+    for p in points {
+        let (cell, r) = HeadMap::cell(p);
+        radius[cell] = radius[cell].max(r);
+    }
+    let cells = || (0..MAP_POLAR).flat_map(|i| (0..MAP_AZIMUTH).map(move |j| (i, j)));
+    // Fill empty cells from their neighbours until none is left: near the poles the cells
+    // are narrower than the spacing of the vertices, and runs of dozens stay empty (a
+    // surface at the centre there let strands over the crown pass through the skull).
+    while radius.contains(&0.0) && radius.iter().any(|&r| r > 0.0) {
+        let previous = radius.clone();
+        for (i, j) in cells().filter(|&(i, j)| previous[i * MAP_AZIMUTH + j] == 0.0) {
+            radius[i * MAP_AZIMUTH + j] = largest_neighbour(&previous, i, j);
+        }
+    }
+    // Widen each cell to its neighbours' largest value, so that lookups between vertices
+    // do not dip below the surface.
+    let previous = radius.clone();
+    for (i, j) in cells() {
+        radius[i * MAP_AZIMUTH + j] = previous[i * MAP_AZIMUTH + j].max(largest_neighbour(&previous, i, j));
+    }
+    radius
+}
+
+/// The largest value of the four cells beside cell (`i`, `j`) of a map (round the azimuth,
+/// clamped at the poles).
+fn largest_neighbour(map: &[f32], i: usize, j: usize) -> f32 {
+    let mut best = 0.0f32;
+    for (di, dj) in [(-1i32, 0i32), (1, 0), (0, -1), (0, 1)] {
+        let ii = (i as i32 + di).clamp(0, MAP_POLAR as i32 - 1) as usize;
+        let jj = (j as i32 + dj).rem_euclid(MAP_AZIMUTH as i32) as usize;
+        best = best.max(map[ii * MAP_AZIMUTH + jj]);
+    }
+    best
+}
+
 /// Half the face's width in front of the ears (`z` > 0.15) in each band of height, widened to
-/// the neighbouring bands' (so hair does not step in between them).
-fn face_half_widths(skin: &[Vec3]) -> Vec<f32> {
+/// the neighbouring bands' (so hair does not step in between them). The ears (weight in
+/// `ears` of a half or more) are left out: they stand out a centimetre and a half from the
+/// side of the head, and with them short hair lying behind and above the ear was pushed out
+/// to their rim as it fell, in one step, and showed beside the temples as hooks.
+fn face_half_widths(skin: &[Vec3], ears: &[f32]) -> Vec<f32> {
     let mut widths = vec![0.0f32; FACE_BANDS];
-    for p in skin.iter().filter(|p| p.z > 0.15 && p.y >= FACE_LOW) {
+    let outside_ears = skin.iter().enumerate().filter(|&(v, _)| !in_ear(ears, v)).map(|(_, p)| p);
+    for p in outside_ears.filter(|p| p.z > 0.15 && p.y >= FACE_LOW) {
         let band = ((p.y - FACE_LOW) / FACE_BAND) as usize;
         if let Some(w) = widths.get_mut(band) {
             *w = w.max(p.x.abs());
         }
     }
     (0..FACE_BANDS).map(|i| widths[i.saturating_sub(1)..(i + 2).min(FACE_BANDS)].iter().copied().fold(0.0, f32::max)).collect()
+}
+
+/// Whether skin vertex `v` is one of the ears (by its weight in their region).
+fn in_ear(ears: &[f32], v: usize) -> bool {
+    ears.get(v).is_some_and(|&w| w >= 0.5)
 }
 
 /// Extra length (decimetres) for a strand of hanging hair rooted below the crown: hair is
@@ -555,6 +594,7 @@ impl HairModel {
         let offset = eye_midpoint(model, neutral) - eye_midpoint(model, &model.rest);
         let aligned: Vec<Vec3> = neutral[..skin_end].iter().map(|&p| p - offset).collect();
         let roots = sample_roots(model, identity, &aligned, &shape);
+        let ears = model.region("ears").unwrap_or_default();
         let mut hair = HairModel {
             positions: Vec::new(),
             tangents: Vec::new(),
@@ -567,7 +607,7 @@ impl HairModel {
             root_follow: Vec::new(),
             skull_centre: HEAD_CENTRE + offset,
             rows: Vec::new(),
-            head: HeadMap::new(&aligned),
+            head: HeadMap::new(&aligned, &ears, shape.hangs_over_ears()),
             offset,
             skin_cover: Vec::new(),
         };
@@ -582,7 +622,6 @@ impl HairModel {
         if let (HairStyle::Bun, Some(centre)) = (identity.hair_style, shape.gather) {
             hair.add_bun(centre, &shape, roots.first().map_or(0, |r| r.vertex), identity.hair_grey);
         }
-        let ears = model.region("ears").unwrap_or_default();
         hair.skin_cover = skin_under_cards(&hair.rows, hair.rows_per_card(), &aligned, &ears, &hair.head);
         for p in &mut hair.positions {
             *p += offset;
@@ -775,7 +814,7 @@ impl Hair {
     pub fn shadow_casters(&self, eye: Vec3) -> Vec<[u32; 3]> {
         let hidden = self.hidden_from(eye);
         let rows = self.model.rows_per_card() as u32;
-        let centre = |row: u32| (self.positions[2 * row as usize] + self.positions[2 * row as usize + 1]) * 0.5;
+        let centre = |row: u32| self.row_centre(row);
         let mut triangles = Vec::with_capacity(self.model.triangles.len());
         let mut kept = Vec::with_capacity(rows as usize);
         for first in (0..self.positions.len() as u32 / 2).step_by(rows as usize) {
@@ -800,6 +839,11 @@ impl Hair {
             }
         }
         triangles
+    }
+
+    /// The middle of card row `row` (between its two vertices).
+    fn row_centre(&self, row: u32) -> Vec3 {
+        (self.positions[2 * row as usize] + self.positions[2 * row as usize + 1]) * 0.5
     }
 
     /// Per vertex: whether the skull hides it from `eye` (see [`Hair::seen_from`]).
@@ -1051,10 +1095,13 @@ fn comb_direction(root: &Root, parting: Parting, gather: Option<Vec3>) -> Vec3 {
     along.normalize_or(Vec3::NEG_Y)
 }
 
-/// The points of one strand, root first.
 /// A strand's points from its root, or `None` for a root from which hair cannot grow (it lies
-/// under an overhang, the ear, and its first step would jump out over it).
+/// under an overhang, the ear, and its first step would jump out over it, or it lies within the
+/// ears that hair is cut around).
 fn grow(root: &Root, n: u32, identity: &Identity, shape: &StyleShape, head: &HeadMap) -> Option<Vec<Vec3>> {
+    if head.in_ears(root.position) {
+        return None;
+    }
     let top = smooth(7.9, 8.4, root.rest.y);
     let length = (shape.length_back + (shape.length_top - shape.length_back) * top + cut_line_reach(root, shape)) * (0.8 + 0.35 * hash01(n, 20, 0));
     let step = length / shape.segments as f32;
@@ -1098,13 +1145,15 @@ fn grow(root: &Root, n: u32, identity: &Identity, shape: &StyleShape, head: &Hea
         let point = head.keep_outside(centre + offset, 0.004);
         // A strand that hangs below the ears and that the jaw, neck or shoulders would make
         // jump ends where it is (its remaining points collapse there), rather than being drawn
-        // as a stretched streak across them.
+        // as a stretched streak across them. Hair cut around the ears ends where it would
+        // reach into them.
         let last = points[points.len() - 1];
         let jumps = (point - last).length() > 2.5 * step + 2.0 * curl_radius;
-        if jumps && k == 1 {
+        let cut = head.in_ears(point);
+        if (jumps || cut) && k == 1 {
             return None;
         }
-        if jumps && point.y < BELOW_EARS {
+        if (jumps && point.y < BELOW_EARS) || cut {
             points.resize(shape.segments + 1, last);
             break;
         }
@@ -1139,7 +1188,8 @@ mod tests {
             assert_eq!(hair.positions, again.positions);
             let offset = eye_midpoint(model, &posed.neutral) - eye_midpoint(model, &model.rest);
             let aligned: Vec<Vec3> = posed.neutral[..model.part(Part::Skin).vertices.end as usize].iter().map(|&p| p - offset).collect();
-            let head = HeadMap::new(&aligned);
+            let shape = style_shape(identity.hair_style, identity.hair_texture);
+            let head = HeadMap::new(&aligned, &model.region("ears").unwrap(), shape.hangs_over_ears());
             // Away from the roots (which sit on the skin), card vertices stay outside it.
             let grown: Vec<Vec3> = hair.positions.iter().zip(&hair.uvs).filter(|(_, uv)| uv.y > 0.0).map(|(&p, _)| p - offset).collect();
             let inside = grown.iter().filter(|&&p| (p - HEAD_CENTRE).length() < head.surface(p) - 0.03).count();
@@ -1249,9 +1299,52 @@ mod tests {
         }
     }
 
+    /// Hair too short to hang over the ears is cut around them: no card row reaches into an
+    /// ear, and over each ear's top (from its top up 2 cm, between its front and back) the hair
+    /// stands no further off the head (the ears left out) than the hair in the same band beside
+    /// the ear, 3 cm in front of it and behind it, does, give or take 2 mm. (With the ears in the
+    /// head's surface, strands rooted just above them were pushed out to the ear's rim in one
+    /// step and stood out beside the temples as hooks: rows 1.5 cm off the head over wm1's ears
+    /// against 6 mm beside them. With the ears left out and nothing more, coils stood through
+    /// the tops of bm2's ears.)
+    #[test]
+    fn short_hair_is_cut_around_the_ears_not_hooked_over_them() {
+        let model = FaceModel::embedded();
+        let ears = model.region("ears").unwrap();
+        let mut failures = Vec::new();
+        for identity in IdentityTable::built_in().iter() {
+            if style_shape(identity.hair_style, identity.hair_texture).hangs_over_ears() {
+                continue;
+            }
+            let posed = crate::engine::pose_expression(&crate::facs::Expression::neutral(), identity).unwrap();
+            let hair = HairModel::cached(model, identity, &posed.neutral);
+            let skin = &posed.neutral[..model.part(Part::Skin).vertices.end as usize];
+            let aligned: Vec<Vec3> = skin.iter().map(|&p| p - hair.offset).collect();
+            let head = HeadMap::new(&aligned, &ears, false);
+            let ear: Vec<Vec3> = aligned.iter().enumerate().filter(|&(v, _)| in_ear(&ears, v)).map(|(_, &p)| p).collect();
+            let top = ear.iter().map(|p| p.y).fold(f32::MIN, f32::max);
+            let (front, back) = ear.iter().fold((f32::MIN, f32::MAX), |(f, b), p| (f.max(p.z), b.min(p.z)));
+            let highest = |z_within: &dyn Fn(f32) -> bool| {
+                let band = hair.rows.iter().map(|row| row.point).filter(|p| p.x.abs() > 0.4 && (top..top + 0.2).contains(&p.y) && z_within(p.z));
+                band.map(|p| head.height(p)).fold(0.0f32, f32::max)
+            };
+            let over = highest(&|z| (back..front).contains(&z));
+            let beside = highest(&|z| (back - 0.3..back).contains(&z) || (front..front + 0.3).contains(&z));
+            let in_ears = hair.rows.iter().filter(|row| head.in_ears(row.point)).count();
+            if in_ears > 0 {
+                failures.push(format!("{}: {in_ears} card rows in the ears", identity.id));
+            }
+            if over > beside + 0.02 {
+                failures.push(format!("{}: hair over the ears {over:.3} dm off the head, beside them {beside:.3}", identity.id));
+            }
+        }
+        assert!(failures.is_empty(), "{}", failures.join("\n"));
+    }
+
     /// The shadow casters leave out rows only where the chord drawn in their place passes
-    /// within a texel of the shadow map (checked against every row left out), and so need a
-    /// third fewer triangles than the camera's cards or less on straight and short hair.
+    /// within a texel of the shadow map (checked against every row left out), and so need at
+    /// least a third fewer triangles than the camera's cards on straight and short hair (wm1,
+    /// wf1, saf1).
     #[test]
     fn shadow_casters_leave_out_rows_only_where_the_chord_keeps_the_card() {
         let model = FaceModel::embedded();
@@ -1262,7 +1355,7 @@ mod tests {
             let seen = hair.seen_from(eye).iter().filter(|t| t[0] != t[1]).count();
             let casters = hair.shadow_casters(eye);
             assert!(casters.len() <= seen, "{id}: {} casters for {seen} triangles seen", casters.len());
-            let centre = |v: u32| (hair.positions[v as usize] + hair.positions[v as usize + 1]) * 0.5;
+            let centre = |v: u32| hair.row_centre(v / 2);
             for &[a, c, _] in casters.iter().step_by(2) {
                 for skipped in (a + 2..c).step_by(2) {
                     let gap = segment_distance(centre(skipped), centre(a), centre(c));
@@ -1272,7 +1365,6 @@ mod tests {
             if ["wm1", "wf1", "saf1"].contains(&id) {
                 assert!(casters.len() * 3 <= seen * 2, "{id}: {} casters for {seen} triangles seen", casters.len());
             }
-            eprintln!("{id}: {} casters for {seen}", casters.len());
         }
     }
 
