@@ -17,7 +17,7 @@ import os
 import numpy as np
 from PIL import Image, ImageDraw
 
-from landmarks import BROW_IN, EYE, IRIS, LIDS, LIP_LO, LIP_UP
+from landmarks import BROW_IN, EYE, IRIS, LIDS, LIP_LO, LIP_UP, LIP_UP_OUT, NOSE_TIP
 
 # The landmarks each measure reads, and those that frame its region.
 BROW_LINE = [70, 63, 105, 66, 107, 336, 296, 334, 293, 300]
@@ -25,6 +25,7 @@ READS = {
     "brow_gap": [BROW_IN["R"], BROW_IN["L"]],
     "brow_inner": [BROW_IN["R"], BROW_IN["L"]],
     "lip_gap": [LIP_UP, LIP_LO],
+    "upper_lip_to_nose": [NOSE_TIP, LIP_UP_OUT],
     "bs_eyeLookDown": [IRIS["R"], IRIS["L"]],
     "bs_eyeLookUp": [IRIS["R"], IRIS["L"]],
     "eye_open": [i for side in "RL" for pair in LIDS[side][:3] for i in pair],
@@ -33,6 +34,7 @@ FRAME = {
     "brow_gap": BROW_LINE + EYE["R"] + EYE["L"],
     "brow_inner": BROW_LINE + EYE["R"] + EYE["L"],
     "lip_gap": [61, 291, 0, 17, 2],
+    "upper_lip_to_nose": [61, 291, 17, 6, 48, 278],
     "bs_eyeLookDown": BROW_LINE + EYE["R"] + EYE["L"],
     "bs_eyeLookUp": BROW_LINE + EYE["R"] + EYE["L"],
     "eye_open": BROW_LINE + EYE["R"] + EYE["L"],

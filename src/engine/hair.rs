@@ -17,9 +17,12 @@
 //! with fixed hashes, in triangle order; next to a parting, at its edge); a strand starts along
 //! the comb direction (away from the parting, back and down at the back of the head), bends
 //! under gravity, takes the curl of its texture and is kept outside the head (a spherical
-//! height map of the skin), outside the face and above the shoulders. Beside the face hanging
-//! hair keeps out to the face's width, a bound that narrows to nothing behind the ears, so the
-//! hair there falls between the hair beside the face and the hair down the back. Hanging hair
+//! height map of the skin), outside the face and above the shoulders. Hair that hangs over the
+//! ears lies over them; shorter hair lies on the head with the ears left out of that map and is
+//! cut around them (a strand ends where it would reach into an ear). Beside the face hanging
+//! hair keeps out to the face's width (the ears left out), a bound that narrows to nothing
+//! behind the ears, so the hair there falls between the hair beside the face and the hair down
+//! the back. Hanging hair
 //! is cut to a line (strands rooted low at the back and sides grow longer) and fans out over the
 //! back below the ears, so it fills the space beside the neck.
 //!
