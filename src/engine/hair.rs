@@ -817,7 +817,6 @@ impl Hair {
     pub fn shadow_casters(&self, eye: Vec3) -> Vec<[u32; 3]> {
         let hidden = self.hidden_from(eye);
         let rows = self.model.rows_per_card() as u32;
-        let centre = |row: u32| self.row_centre(row);
         let mut triangles = Vec::with_capacity(self.model.triangles.len());
         let mut kept = Vec::with_capacity(rows as usize);
         for first in (0..self.positions.len() as u32 / 2).step_by(rows as usize) {
@@ -825,8 +824,8 @@ impl Hair {
             kept.push(first);
             let mut k = first + 1;
             while k < first + rows {
-                let (from, to) = (centre(kept[kept.len() - 1]), centre((k + 1).min(first + rows - 1)));
-                if k + 1 < first + rows && segment_distance(centre(k), from, to) < SHADOW_CHORD {
+                let (from, to) = (self.row_centre(kept[kept.len() - 1]), self.row_centre((k + 1).min(first + rows - 1)));
+                if k + 1 < first + rows && segment_distance(self.row_centre(k), from, to) < SHADOW_CHORD {
                     k += 1;
                 }
                 kept.push(k);
@@ -1189,10 +1188,7 @@ mod tests {
             assert!(hair.triangles.len() > 2000, "{id}: {} triangles", hair.triangles.len());
             let again = HairModel::new(model, &identity, &posed.neutral);
             assert_eq!(hair.positions, again.positions);
-            let offset = eye_midpoint(model, &posed.neutral) - eye_midpoint(model, &model.rest);
-            let aligned: Vec<Vec3> = posed.neutral[..model.part(Part::Skin).vertices.end as usize].iter().map(|&p| p - offset).collect();
-            let shape = style_shape(identity.hair_style, identity.hair_texture);
-            let head = HeadMap::new(&aligned, &model.region("ears").unwrap(), shape.hangs_over_ears());
+            let (offset, head) = (hair.offset, &hair.head);
             // Away from the roots (which sit on the skin), card vertices stay outside it.
             let grown: Vec<Vec3> = hair.positions.iter().zip(&hair.uvs).filter(|(_, uv)| uv.y > 0.0).map(|(&p, _)| p - offset).collect();
             let inside = grown.iter().filter(|&&p| (p - HEAD_CENTRE).length() < head.surface(p) - 0.03).count();
@@ -1323,7 +1319,7 @@ mod tests {
             let hair = HairModel::cached(model, identity, &posed.neutral);
             let skin = &posed.neutral[..model.part(Part::Skin).vertices.end as usize];
             let aligned: Vec<Vec3> = skin.iter().map(|&p| p - hair.offset).collect();
-            let head = HeadMap::new(&aligned, &ears, false);
+            let head = &hair.head;
             let ear: Vec<Vec3> = aligned.iter().enumerate().filter(|&(v, _)| in_ear(&ears, v)).map(|(_, &p)| p).collect();
             let top = ear.iter().map(|p| p.y).fold(f32::MIN, f32::max);
             let (front, back) = ear.iter().fold((f32::MIN, f32::MAX), |(f, b), p| (f.max(p.z), b.min(p.z)));
