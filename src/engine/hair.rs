@@ -230,8 +230,10 @@ struct HeadMap {
     /// Where the ears stand out of that surface (left out of it): their distance from the
     /// centre per cell, 0 where there is no ear.
     ears: Vec<f32>,
-    /// Half the face's width in front of the ears, the ears left out, per [`FACE_BAND`] of
-    /// height from [`FACE_LOW`] up: where hair hanging beside the face lies.
+    /// Half the face's width in front of the ears, the ears left out, draped (see
+    /// [`face_half_widths`]), per [`face_cell`]: [`FACE_BAND`] of height from [`FACE_LOW`] up
+    /// and [`FACE_DEPTH`] of depth from [`IN_FRONT_OF_EARS`] forward: where hair hanging beside
+    /// the face lies.
     face_half_width: Vec<f32>,
 }
 
@@ -240,6 +242,10 @@ struct HeadMap {
 const FACE_BAND: f32 = 0.05;
 const FACE_LOW: f32 = 5.9;
 const FACE_BANDS: usize = 38;
+/// The face's width is taken in slices of this depth (decimetres) from `IN_FRONT_OF_EARS`
+/// forward, the last reaching to the front of the face.
+const FACE_DEPTH: f32 = 0.1;
+const FACE_DEPTHS: usize = 12;
 /// How far hanging hair stays off the side of the face.
 const FACE_CLEARANCE: f32 = 0.03;
 
@@ -357,21 +363,43 @@ fn largest_neighbour(map: &[f32], i: usize, j: usize) -> f32 {
     best
 }
 
-/// Half the face's width in front of the ears (`z` > 0.15) in each band of height, widened to
-/// the neighbouring bands' (so hair does not step in between them). The ears (weight in
-/// `ears` of a half or more) are left out: they stand out a centimetre and a half from the
-/// side of the head, and with them short hair lying behind and above the ear was pushed out
-/// to their rim as it fell, in one step, and showed beside the temples as hooks.
+/// Half the face's width in front of the ears in each band of height and slice of depth
+/// ([`face_cell`]), draped: the widest the skin is at that depth (give or take 2 cm) and height
+/// (give or take a band) or anywhere above it up to the hairline, so hanging hair falls
+/// straight down from the widest point above it, at its own depth. (One width per band of
+/// height, the widest at any depth, held the hair in front of the temple out to the skull's
+/// width behind it, a centimetre out: on a turned head it stood out from the far temple as a
+/// wing.) The ears (weight in `ears` of a half or more) are left out: they stand out a
+/// centimetre and a half from the side of the head, and with them short hair lying behind and
+/// above the ear was pushed out to their rim as it fell, in one step, and showed beside the
+/// temples as hooks.
 fn face_half_widths(skin: &[Vec3], ears: &[f32]) -> Vec<f32> {
-    let mut widths = vec![0.0f32; FACE_BANDS];
+    let mut widths = vec![0.0f32; FACE_BANDS * FACE_DEPTHS];
+    let top = FACE_LOW + FACE_BANDS as f32 * FACE_BAND;
     let outside_ears = skin.iter().enumerate().filter(|&(v, _)| !in_ear(ears, v)).map(|(_, p)| p);
-    for p in outside_ears.filter(|p| p.z > 0.15 && p.y >= FACE_LOW) {
-        let band = ((p.y - FACE_LOW) / FACE_BAND) as usize;
-        if let Some(w) = widths.get_mut(band) {
-            *w = w.max(p.x.abs());
+    for p in outside_ears.filter(|p| p.z > IN_FRONT_OF_EARS && (FACE_LOW..top).contains(&p.y)) {
+        let cell = face_cell(*p);
+        widths[cell] = widths[cell].max(p.x.abs());
+    }
+    let mut draped = vec![0.0f32; FACE_BANDS * FACE_DEPTHS];
+    for band in (0..FACE_BANDS).rev() {
+        for depth in 0..FACE_DEPTHS {
+            let above = if band + 1 < FACE_BANDS { draped[(band + 1) * FACE_DEPTHS + depth] } else { 0.0 };
+            let bands = band.saturating_sub(1)..(band + 2).min(FACE_BANDS);
+            let near = bands.flat_map(|b| (depth.saturating_sub(2)..(depth + 3).min(FACE_DEPTHS)).map(move |d| b * FACE_DEPTHS + d));
+            draped[band * FACE_DEPTHS + depth] = near.map(|cell| widths[cell]).fold(above, f32::max);
         }
     }
-    (0..FACE_BANDS).map(|i| widths[i.saturating_sub(1)..(i + 2).min(FACE_BANDS)].iter().copied().fold(0.0, f32::max)).collect()
+    draped
+}
+
+/// The cell (band of height, slice of depth) of the face's widths that `p` lies in; points
+/// below the lowest band or above the highest, in front of the last slice or behind the first
+/// count in them.
+fn face_cell(p: Vec3) -> usize {
+    let band = (((p.y - FACE_LOW) / FACE_BAND).max(0.0) as usize).min(FACE_BANDS - 1);
+    let depth = (((p.z - IN_FRONT_OF_EARS) / FACE_DEPTH).max(0.0) as usize).min(FACE_DEPTHS - 1);
+    band * FACE_DEPTHS + depth
 }
 
 /// Whether skin vertex `v` is one of the ears (by its weight in their region).
@@ -434,8 +462,7 @@ fn keep_clear_of_face_and_shoulders(mut p: Vec3, root_y: f32, head: &HeadMap) ->
     // backdrop showing between them: pigtails seen from the front).
     let front = smooth(BEHIND_EARS, IN_FRONT_OF_EARS, p.z);
     if front > 0.0 && p.y < 7.75 && p.y < root_y - 0.08 {
-        let band = (((p.y - FACE_LOW) / FACE_BAND).max(0.0) as usize).min(FACE_BANDS - 1);
-        let half_width = (head.face_half_width[band] + FACE_CLEARANCE) * front;
+        let half_width = (head.face_half_width[face_cell(p)] + FACE_CLEARANCE) * front;
         if p.x.abs() < half_width {
             p.x = half_width * if p.x < 0.0 { -1.0 } else { 1.0 };
         }
@@ -1335,6 +1362,41 @@ mod tests {
             }
             if over > beside + 0.02 {
                 failures.push(format!("{}: hair over the ears {over:.3} dm off the head, beside them {beside:.3}", identity.id));
+            }
+        }
+        assert!(failures.is_empty(), "{}", failures.join("\n"));
+    }
+
+    /// Straight and wavy hanging hair turns down at the temple close to it: in front of the
+    /// temple where it turns (7.45–7.75 dm high, 0.9–1.2 dm forward), nine in ten card rows lie
+    /// within 1.5 cm of the skin beside them at their own height and depth (which includes the
+    /// hair's own thickness there, about a centimetre). Held out to the head's widest at any
+    /// depth (the skull behind the temple), they stood 1.6–1.9 cm out: seen on a turned head, a
+    /// wing standing off the far temple.
+    #[test]
+    fn hanging_hair_turns_down_close_to_the_temple() {
+        let model = FaceModel::embedded();
+        let ears = model.region("ears").unwrap();
+        let mut failures = Vec::new();
+        for identity in IdentityTable::built_in().iter() {
+            let shape = style_shape(identity.hair_style, identity.hair_texture);
+            if !shape.hangs_over_ears() || !matches!(identity.hair_texture, HairTexture::Straight | HairTexture::Wavy) {
+                continue;
+            }
+            let posed = crate::engine::pose_expression(&crate::facs::Expression::neutral(), identity).unwrap();
+            let hair = HairModel::cached(model, identity, &posed.neutral);
+            let skin = &posed.neutral[..model.part(Part::Skin).vertices.end as usize];
+            let bare: Vec<Vec3> = skin.iter().enumerate().filter(|&(v, _)| !in_ear(&ears, v)).map(|(_, &p)| p - hair.offset).collect();
+            // The skin's half-width within 5 mm of the row's height and depth (None where no
+            // vertex lies that near).
+            let beside = |p: Vec3| bare.iter().filter(|s| (s.y - p.y).abs() < 0.05 && (s.z - p.z).abs() < 0.05).map(|s| s.x.abs()).reduce(f32::max);
+            let temple = hair.rows.iter().map(|row| row.point).filter(|p| p.x.abs() > 0.4 && (7.45..7.75).contains(&p.y) && (0.9..1.2).contains(&p.z));
+            let mut gaps: Vec<f32> = temple.filter_map(|p| beside(p).map(|w| p.x.abs() - w)).collect();
+            gaps.sort_by(f32::total_cmp);
+            match gaps.get(gaps.len() * 9 / 10) {
+                None => failures.push(format!("{}: no card rows in front of the temple", identity.id)),
+                Some(&gap) if gap > 0.15 => failures.push(format!("{}: nine in ten rows within {gap:.3} dm of the temple", identity.id)),
+                Some(_) => {}
             }
         }
         assert!(failures.is_empty(), "{}", failures.join("\n"));
