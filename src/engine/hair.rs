@@ -155,15 +155,49 @@ fn points_per_turn(texture: HairTexture) -> f32 {
 }
 
 /// Where along its turn (0..1) the curl of strand `n`, rooted at `rest` (base mesh), starts.
-/// Waves start with their lock ([`LOCK_SIZE`]), a little apart strand by strand, so a lock
-/// waves as one (each strand waving on its own made a crinkled tangle); curls and coils turn
-/// each on its own.
+/// Waves start where [`wave_field`] says, which changes smoothly over the head, with a little
+/// of their lock's ([`LOCK_SIZE`]) and their own: a lock waves as one (each strand waving on
+/// its own made a crinkled tangle), and neighbouring locks wave nearly together, so the waves
+/// run across the hair in bands (locks each waving on their own crossed one another as a
+/// lattice). Curls and coils turn each on its own.
 fn curl_phase(texture: HairTexture, rest: Vec3, n: u32) -> f32 {
     if texture != HairTexture::Wavy {
         return hash01(n, 22, 0);
     }
     let [x, y, z] = lock_cell(rest);
-    hash01(x ^ 0x27d4_eb2d, y, z) + 0.12 * hash01(n, 22, 0)
+    WAVE_FIELD_TURNS * wave_field(rest) + 0.06 * hash01(x ^ 0x27d4_eb2d, y, z) + 0.05 * hash01(n, 22, 0)
+}
+
+/// How far along its curl (decimetres, a period per turn) a strand is at `centre`, having grown
+/// `travelled` from its root: curls and coils turn with the length grown; waves with the height
+/// (from the top of the head down), so the waves of hanging hair run across it in bands at one
+/// height, whatever length the strands grew to get there (turned by length, strands grown from
+/// the crown and from the temple crossed one another beside the face as a lattice), and hair
+/// lying across the top of the head lies flat.
+fn curl_turned(texture: HairTexture, travelled: f32, centre: Vec3) -> f32 {
+    if texture == HairTexture::Wavy { 8.6 - centre.y } else { travelled }
+}
+
+/// The edge (decimetres) of the cells over which [`wave_field`] changes, and the most (turns)
+/// waves' starts change over one.
+const WAVE_FIELD_CELL: f32 = 0.6;
+const WAVE_FIELD_TURNS: f32 = 0.6;
+
+/// A smooth field (0..1) over the head: hashed values at the corners of cells
+/// [`WAVE_FIELD_CELL`] wide, blended with smoothstep weights.
+fn wave_field(rest: Vec3) -> f32 {
+    let q = rest / WAVE_FIELD_CELL;
+    let cell = q.floor();
+    let t = q - cell;
+    let w = t * t * (Vec3::splat(3.0) - 2.0 * t);
+    let [x, y, z] = [cell.x as i32, cell.y as i32, cell.z as i32];
+    let mut sum = 0.0;
+    for corner in 0..8u32 {
+        let [dx, dy, dz] = [corner & 1, (corner >> 1) & 1, corner >> 2];
+        let weight = (if dx == 1 { w.x } else { 1.0 - w.x }) * (if dy == 1 { w.y } else { 1.0 - w.y }) * (if dz == 1 { w.z } else { 1.0 - w.z });
+        sum += weight * hash01((x + dx as i32) as u32 ^ 0x1656_67b1, (y + dy as i32) as u32, (z + dz as i32) as u32);
+    }
+    sum
 }
 
 /// The unit offset of a curl at `angle` around a strand running along `direction` at `p`:
@@ -1168,7 +1202,7 @@ fn grow(root: &Root, n: u32, identity: &Identity, shape: &StyleShape, head: &Hea
         centre = next;
         // Curl: an offset turning around the strand's direction.
         let travelled = step * k as f32;
-        let angle = phase + std::f32::consts::TAU * travelled / curl_period;
+        let angle = phase + std::f32::consts::TAU * curl_turned(texture, travelled, centre) / curl_period;
         let grow_in = (travelled / 0.1).min(1.0);
         let offset = curl_offset(texture, direction, centre, angle) * curl_radius * grow_in;
         let point = head.keep_outside(centre + offset, 0.004);
@@ -1677,17 +1711,36 @@ mod tests {
         assert!(inside.len() >= 150 && inside.iter().all(|&v| hair.skin_cover[v] == 1.0), "{} vertices under lying cards", inside.len());
     }
 
-    /// Wavy hair waves lock by lock: strands rooted in one lock start their waves within an
-    /// eighth of a turn of each other, different locks anywhere; and a wave sways across the
-    /// strand along the head's surface (not out of it, not round the strand as curls do).
+    /// Wavy hair waves lock by lock, neighbouring locks nearly together, and by height: strands
+    /// rooted in one lock start their waves within an eighth of a turn of each other, locks a
+    /// lock apart within a fifth of a turn, and two strands from neighbouring locks that reach
+    /// one height after lengths 3 cm apart wave there within a fifth of a turn of each other
+    /// (turned by length grown they were two thirds of a turn apart: strands from the crown and
+    /// from the temple crossed beside the face as a lattice); across the head locks start a
+    /// tenth of a turn or more apart (the bands are not ruled lines).
+    /// A wave sways across the strand along the head's surface (not out of it, not round the
+    /// strand as curls do).
     #[test]
-    fn wavy_hair_waves_lock_by_lock_along_the_head() {
+    fn wavy_hair_waves_in_bands_lock_by_lock_along_the_head() {
         let root = Vec3::new(0.31, 8.2, 0.52);
         let phases: Vec<f32> = (0..40).map(|n| curl_phase(HairTexture::Wavy, root + Vec3::splat(0.001 * (n % 5) as f32), n)).collect();
         let spread = |t: &[f32]| t.iter().copied().fold(f32::MIN, f32::max) - t.iter().copied().fold(f32::MAX, f32::min);
         assert!(spread(&phases) <= 0.125, "one lock's waves start {} of a turn apart", spread(&phases));
-        let locks: Vec<f32> = (0..40).map(|n| curl_phase(HairTexture::Wavy, Vec3::new(0.1 * n as f32, 8.2, 0.5), 0)).collect();
-        assert!(spread(&locks) > 0.6, "locks' waves start only {} of a turn apart", spread(&locks));
+        let across: Vec<Vec3> = (0..60).map(|k| Vec3::new(-0.75 + 0.025 * k as f32, 8.0 + 0.004 * k as f32, 0.4 - 0.003 * k as f32)).collect();
+        let wave = |p: Vec3, travelled: f32, at: Vec3| {
+            curl_phase(HairTexture::Wavy, p, 0) + curl_turned(HairTexture::Wavy, travelled, at) / curl(HairTexture::Wavy).1
+        };
+        let (mut neighbours, mut by_height) = (0.0f32, 0.0f32);
+        for &p in &across {
+            let next = p + Vec3::X * LOCK_SIZE;
+            neighbours = neighbours.max((curl_phase(HairTexture::Wavy, p, 0) - curl_phase(HairTexture::Wavy, next, 0)).abs());
+            let at = Vec3::new(p.x, 6.8, 0.3);
+            by_height = by_height.max((wave(p, 1.5, at) - wave(next, 1.8, at)).abs());
+        }
+        let locks: Vec<f32> = across.iter().map(|&p| curl_phase(HairTexture::Wavy, p, 0)).collect();
+        assert!(neighbours <= 0.2, "neighbouring locks' waves start {neighbours} of a turn apart");
+        assert!(by_height <= 0.2, "neighbouring strands wave {by_height} of a turn apart at one height");
+        assert!(spread(&locks) >= 0.1, "locks' waves across the head start only {} of a turn apart", spread(&locks));
         let curls: Vec<f32> = (0..40).map(|n| curl_phase(HairTexture::Curly, root, n)).collect();
         assert!(spread(&curls) > 0.6, "curls in one lock turn together");
         let (p, down) = (Vec3::new(0.6, 7.0, 0.1), Vec3::NEG_Y);
