@@ -2,8 +2,8 @@
 //! (ribbons) narrowing to a point over their last part (each strand from its own share of its
 //! length, so tips make a soft, uneven edge), generated from the identity's hair data (style,
 //! texture, parting, hairline); no third-party hair assets. Curly and coiled hair grows more,
-//! narrower strands than straight hair; neighbouring strands share a lock's tone and, when
-//! wavy, its waves.
+//! narrower strands than straight hair; neighbouring strands share a lock's tone; wavy hair
+//! waves with the height it has come down to, neighbouring locks nearly together (in bands).
 //!
 //! In: the face model, the identity and its neutral head. Out: [`HairModel`] (cached per
 //! person): card vertices in the neutral head's space with the strand direction (tangent) and
@@ -20,10 +20,10 @@
 //! height map of the skin), outside the face and above the shoulders. Hair that hangs over the
 //! ears lies over them; shorter hair lies on the head with the ears left out of that map and is
 //! cut around them (a strand ends where it would reach into an ear). Beside the face hanging
-//! hair keeps out to the face's width (the ears left out), a bound that narrows to nothing
+//! hair keeps out to the face's width at its own depth and height or above (the ears left out:
+//! it falls straight down from the widest point above it), a bound that narrows to nothing
 //! behind the ears, so the hair there falls between the hair beside the face and the hair down
-//! the back. Hanging hair
-//! is cut to a line (strands rooted low at the back and sides grow longer) and fans out over the
+//! the back. Hanging hair is cut to a line (strands rooted low at the back and sides grow longer) and fans out over the
 //! back below the ears, so it fills the space beside the neck.
 //!
 //! Per frame, [`Hair::seen_from`] gives the camera the cards with those behind the skull
