@@ -1190,9 +1190,12 @@ fn grow(root: &Root, n: u32, identity: &Identity, shape: &StyleShape, head: &Hea
         let mut next = centre + direction * step;
         let clearance = layer * (k as f32 / shape.segments as f32).min(1.0).sqrt() + 0.004;
         next = head.keep_outside(next, clearance);
-        // Over the skull, hair lies on it rather than standing off it.
-        if shape.hug > 0.0 && next.y > 7.1 {
-            next = head.draw_towards(next, clearance, shape.hug * smooth(7.1, 7.4, next.y));
+        // Over the skull, hair lies on it rather than standing off it; short hair lies on the
+        // head down to the nape (left to fall there, it stood out behind the ears as spikes).
+        let lies_down_to_nape = shape.gather.is_none() && !shape.hangs_over_ears();
+        let lying = if lies_down_to_nape { 1.0 } else { smooth(7.1, 7.4, next.y) };
+        if shape.hug > 0.0 && lying > 0.0 {
+            next = head.draw_towards(next, clearance, shape.hug * lying);
         }
         // Hair that comes down onto a shoulder ends there, lying on it (carried on along the
         // shoulder's slope it slid out past the shoulder as a horizontal wisp).
@@ -1396,6 +1399,39 @@ mod tests {
             }
             if over > beside + 0.02 {
                 failures.push(format!("{}: hair over the ears {over:.3} dm off the head, beside them {beside:.3}", identity.id));
+            }
+        }
+        assert!(failures.is_empty(), "{}", failures.join("\n"));
+    }
+
+    /// Short hair lies on the head down to the nape: behind the ears and below their tops, nine
+    /// in ten card rows of short and cropped hair (coils, which stand off the head, and gathered
+    /// hair aside) lie within 7 mm of the head (the hair's own thickness included; 2–6 mm now).
+    /// Left to fall freely there, short hair stood 0.9–1.4 cm off (nine in ten), and on a
+    /// turned head its tips stood out behind the ears as spikes.
+    #[test]
+    fn short_hair_lies_on_the_head_behind_the_ears() {
+        let model = FaceModel::embedded();
+        let ears = model.region("ears").unwrap();
+        let mut failures = Vec::new();
+        for identity in IdentityTable::built_in().iter() {
+            let shape = style_shape(identity.hair_style, identity.hair_texture);
+            if shape.hangs_over_ears() || shape.gather.is_some() || shape.hug == 0.0 {
+                continue;
+            }
+            let posed = crate::engine::pose_expression(&crate::facs::Expression::neutral(), identity).unwrap();
+            let hair = HairModel::cached(model, identity, &posed.neutral);
+            let skin = &posed.neutral[..model.part(Part::Skin).vertices.end as usize];
+            let ear: Vec<Vec3> = skin.iter().enumerate().filter(|&(v, _)| in_ear(&ears, v)).map(|(_, &p)| p - hair.offset).collect();
+            let top = ear.iter().map(|p| p.y).fold(f32::MIN, f32::max);
+            let back = ear.iter().map(|p| p.z).fold(f32::MAX, f32::min);
+            let behind = hair.rows.iter().map(|row| row.point).filter(|p| p.x.abs() > 0.3 && p.y < top && p.z < back + 0.1);
+            let mut heights: Vec<f32> = behind.map(|p| hair.head.height(p)).collect();
+            heights.sort_by(f32::total_cmp);
+            match heights.get(heights.len() * 9 / 10) {
+                None => failures.push(format!("{}: no card rows behind the ears", identity.id)),
+                Some(&h) if h > 0.07 => failures.push(format!("{}: nine in ten rows behind the ears within {h:.3} dm of the head", identity.id)),
+                Some(_) => {}
             }
         }
         assert!(failures.is_empty(), "{}", failures.join("\n"));
