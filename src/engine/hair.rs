@@ -23,8 +23,8 @@
 //! hair keeps out to the face's width at its own depth and height or above (the ears left out:
 //! it falls straight down from the widest point above it), a bound that narrows to nothing
 //! behind the ears, so the hair there falls between the hair beside the face and the hair down
-//! the back. Hanging hair is cut to a line (strands rooted low at the back and sides grow longer) and fans out over the
-//! back below the ears, so it fills the space beside the neck.
+//! the back. Hanging hair is cut to a line (strands rooted low at the back and sides grow
+//! longer) and fans out over the back below the ears, so it fills the space beside the neck.
 //!
 //! Per frame, [`Hair::seen_from`] gives the camera the cards with those behind the skull
 //! dropped, and [`Hair::shadow_casters`] gives the key light's shadow map the same with fewer
@@ -1243,6 +1243,20 @@ mod tests {
         (identity, posed)
     }
 
+    /// The person's hair at rest, and their skin at rest in the head map's space.
+    fn hair_and_skin_at_rest(model: &FaceModel, identity: &Identity) -> (Arc<HairModel>, Vec<Vec3>) {
+        let posed = crate::engine::pose_expression(&crate::facs::Expression::neutral(), identity).unwrap();
+        let hair = HairModel::cached(model, identity, &posed.neutral);
+        let skin = posed.neutral[..model.part(Part::Skin).vertices.end as usize].iter().map(|&p| p - hair.offset).collect();
+        (hair, skin)
+    }
+
+    /// The value nine in ten of `values` lie at or under (None for none).
+    fn ninth_decile(mut values: Vec<f32>) -> Option<f32> {
+        values.sort_by(f32::total_cmp);
+        values.get(values.len() * 9 / 10).copied()
+    }
+
     #[test]
     fn hair_grows_outside_the_head_and_repeats_exactly() {
         let model = FaceModel::embedded();
@@ -1351,8 +1365,7 @@ mod tests {
     fn the_head_map_has_a_surface_in_every_direction() {
         let model = FaceModel::embedded();
         for identity in IdentityTable::built_in().iter() {
-            let posed = crate::engine::pose_expression(&crate::facs::Expression::neutral(), identity).unwrap();
-            let hair = HairModel::cached(model, identity, &posed.neutral);
+            let (hair, _) = hair_and_skin_at_rest(model, identity);
             let (low, high) = hair.head.radius.iter().fold((f32::MAX, 0.0f32), |(l, h), &r| (l.min(r), h.max(r)));
             assert!(low > 0.4 && high < 3.0, "{}: head map radii {low}..{high}", identity.id);
             if identity.id == "wm1" {
@@ -1379,10 +1392,7 @@ mod tests {
             if style_shape(identity.hair_style, identity.hair_texture).hangs_over_ears() {
                 continue;
             }
-            let posed = crate::engine::pose_expression(&crate::facs::Expression::neutral(), identity).unwrap();
-            let hair = HairModel::cached(model, identity, &posed.neutral);
-            let skin = &posed.neutral[..model.part(Part::Skin).vertices.end as usize];
-            let aligned: Vec<Vec3> = skin.iter().map(|&p| p - hair.offset).collect();
+            let (hair, aligned) = hair_and_skin_at_rest(model, identity);
             let head = &hair.head;
             let ear: Vec<Vec3> = aligned.iter().enumerate().filter(|&(v, _)| in_ear(&ears, v)).map(|(_, &p)| p).collect();
             let top = ear.iter().map(|p| p.y).fold(f32::MIN, f32::max);
@@ -1419,18 +1429,14 @@ mod tests {
             if shape.hangs_over_ears() || shape.gather.is_some() || shape.hug == 0.0 {
                 continue;
             }
-            let posed = crate::engine::pose_expression(&crate::facs::Expression::neutral(), identity).unwrap();
-            let hair = HairModel::cached(model, identity, &posed.neutral);
-            let skin = &posed.neutral[..model.part(Part::Skin).vertices.end as usize];
-            let ear: Vec<Vec3> = skin.iter().enumerate().filter(|&(v, _)| in_ear(&ears, v)).map(|(_, &p)| p - hair.offset).collect();
+            let (hair, skin) = hair_and_skin_at_rest(model, identity);
+            let ear: Vec<Vec3> = skin.iter().enumerate().filter(|&(v, _)| in_ear(&ears, v)).map(|(_, &p)| p).collect();
             let top = ear.iter().map(|p| p.y).fold(f32::MIN, f32::max);
             let back = ear.iter().map(|p| p.z).fold(f32::MAX, f32::min);
             let behind = hair.rows.iter().map(|row| row.point).filter(|p| p.x.abs() > 0.3 && p.y < top && p.z < back + 0.1);
-            let mut heights: Vec<f32> = behind.map(|p| hair.head.height(p)).collect();
-            heights.sort_by(f32::total_cmp);
-            match heights.get(heights.len() * 9 / 10) {
+            match ninth_decile(behind.map(|p| hair.head.height(p)).collect()) {
                 None => failures.push(format!("{}: no card rows behind the ears", identity.id)),
-                Some(&h) if h > 0.07 => failures.push(format!("{}: nine in ten rows behind the ears within {h:.3} dm of the head", identity.id)),
+                Some(h) if h > 0.07 => failures.push(format!("{}: nine in ten rows behind the ears within {h:.3} dm of the head", identity.id)),
                 Some(_) => {}
             }
         }
@@ -1453,19 +1459,15 @@ mod tests {
             if !shape.hangs_over_ears() || !matches!(identity.hair_texture, HairTexture::Straight | HairTexture::Wavy) {
                 continue;
             }
-            let posed = crate::engine::pose_expression(&crate::facs::Expression::neutral(), identity).unwrap();
-            let hair = HairModel::cached(model, identity, &posed.neutral);
-            let skin = &posed.neutral[..model.part(Part::Skin).vertices.end as usize];
-            let bare: Vec<Vec3> = skin.iter().enumerate().filter(|&(v, _)| !in_ear(&ears, v)).map(|(_, &p)| p - hair.offset).collect();
+            let (hair, skin) = hair_and_skin_at_rest(model, identity);
+            let bare: Vec<Vec3> = skin.iter().enumerate().filter(|&(v, _)| !in_ear(&ears, v)).map(|(_, &p)| p).collect();
             // The skin's half-width within 5 mm of the row's height and depth (None where no
             // vertex lies that near).
             let beside = |p: Vec3| bare.iter().filter(|s| (s.y - p.y).abs() < 0.05 && (s.z - p.z).abs() < 0.05).map(|s| s.x.abs()).reduce(f32::max);
             let temple = hair.rows.iter().map(|row| row.point).filter(|p| p.x.abs() > 0.4 && (7.45..7.75).contains(&p.y) && (0.9..1.2).contains(&p.z));
-            let mut gaps: Vec<f32> = temple.filter_map(|p| beside(p).map(|w| p.x.abs() - w)).collect();
-            gaps.sort_by(f32::total_cmp);
-            match gaps.get(gaps.len() * 9 / 10) {
+            match ninth_decile(temple.filter_map(|p| beside(p).map(|w| p.x.abs() - w)).collect()) {
                 None => failures.push(format!("{}: no card rows in front of the temple", identity.id)),
-                Some(&gap) if gap > 0.15 => failures.push(format!("{}: nine in ten rows within {gap:.3} dm of the temple", identity.id)),
+                Some(gap) if gap > 0.15 => failures.push(format!("{}: nine in ten rows within {gap:.3} dm of the temple", identity.id)),
                 Some(_) => {}
             }
         }
