@@ -800,6 +800,25 @@ impl HairModel {
         if hash01(n, fibre, 17) < share { 0.75 + 0.25 * hash01(n, fibre, 18) } else { 0.0 }
     }
 
+    /// [`Self::fibre_grey`] averaged over `span` of the card's width centred on `across`: what
+    /// a pixel that spans that much of the card sees, each fibre weighed by how much of it the
+    /// pixel covers (a fibre is far narrower than a pixel: one sample of it is a speck).
+    pub fn fibre_grey_over(&self, strand: usize, across: f32, span: f32) -> f32 {
+        let (from, to) = ((across - 0.5 * span).max(0.0), (across + 0.5 * span).min(1.0));
+        if self.strand_grey.get(strand).is_none_or(|&share| share <= 0.0) || to - from < 1e-4 {
+            return self.fibre_grey(strand, across);
+        }
+        let (a, b) = (from * FIBRES_PER_CARD, to * FIBRES_PER_CARD);
+        let last = (b as u32).min(FIBRES_PER_CARD as u32 - 1);
+        let covered: f32 = (a as u32..=last)
+            .map(|k| {
+                let overlap = b.min(k as f32 + 1.0) - a.max(k as f32);
+                overlap.max(0.0) * self.fibre_grey(strand, (k as f32 + 0.5) / FIBRES_PER_CARD)
+            })
+            .sum();
+        covered / (b - a)
+    }
+
     /// The cards of one frame: moved with the head's rigid motion (from three scalp points),
     /// and near each root with the root's own movement.
     pub fn posed(self: &Arc<HairModel>, model: &FaceModel, posed: &Posed) -> Hair {
@@ -1522,6 +1541,34 @@ mod tests {
         identity.hair_grey = 0.0;
         let dark = HairModel::new(model, &identity, &posed.neutral);
         assert!((0..dark.strand_grey.len()).all(|s| dark.fibre_grey(s, 0.5) == 0.0));
+    }
+
+    /// A pixel sees the fibres it spans in proportion to how much of each it covers: over the
+    /// whole card their mean, within one fibre that fibre, across two halves their average.
+    #[test]
+    fn a_pixel_sees_the_mean_of_the_fibres_it_spans() {
+        let model = FaceModel::embedded();
+        let (mut identity, posed) = neutral("wm2");
+        identity.hair_grey = 0.5;
+        let hair = HairModel::new(model, &identity, &posed.neutral);
+        let fibres = FIBRES_PER_CARD as usize;
+        let centre = |k: usize| (k as f32 + 0.5) / FIBRES_PER_CARD;
+        let mut compared = 0;
+        for s in (0..hair.strand_grey.len()).step_by(37) {
+            let own: Vec<f32> = (0..fibres).map(|k| hair.fibre_grey(s, centre(k))).collect();
+            let mean = own.iter().sum::<f32>() / fibres as f32;
+            let whole = hair.fibre_grey_over(s, 0.5, 1.0);
+            assert!((whole - mean).abs() < 1e-5, "strand {s}: whole card {whole}, mean of its fibres {mean}");
+            assert_eq!(hair.fibre_grey_over(s, 0.5, 3.0), whole, "a span past the card's edges counts the card only");
+            for k in 0..fibres {
+                let within = hair.fibre_grey_over(s, centre(k), 0.5 / FIBRES_PER_CARD);
+                assert!((within - own[k]).abs() < 1e-5, "strand {s} fibre {k}: {within} against {}", own[k]);
+            }
+            let border = hair.fibre_grey_over(s, 4.0 / FIBRES_PER_CARD, 1.0 / FIBRES_PER_CARD);
+            assert!((border - 0.5 * (own[3] + own[4])).abs() < 1e-5, "strand {s}: across fibres 3 and 4 {border}");
+            compared += usize::from(own.iter().any(|&g| g != own[0]));
+        }
+        assert!(compared > 10, "only {compared} sampled cards mix white and pigmented fibres");
     }
 
     /// Every card ends in a fine point (no square cut), and neighbouring strands start

@@ -301,10 +301,14 @@ pub struct FaceShader<'a> {
     backdrop_kind: Backdrop,
     /// The backdrop's colour on each image row, worked out once.
     backdrop: Vec<Vec3>,
+    /// Where the camera is, and the width of a pixel per unit of distance from it: how much
+    /// of a surface one pixel spans.
+    eye: Vec3,
+    pixel_angle: f32,
 }
 
 impl<'a> FaceShader<'a> {
-    pub fn new(model: &'a FaceModel, posed: &'a Posed, identity: &'a Identity, look: &Look, height: u32) -> FaceShader<'a> {
+    pub fn new(model: &'a FaceModel, posed: &'a Posed, identity: &'a Identity, look: &Look, camera: &Camera) -> FaceShader<'a> {
         let patterns: ActivePatterns = PATTERNS
             .iter()
             .filter_map(|(name, pattern)| {
@@ -318,10 +322,13 @@ impl<'a> FaceShader<'a> {
         });
         let maps = SkinMaps::cached(model, identity);
         let key_light = vec![1.0; posed.positions.len()];
+        let height = camera.height;
         let backdrop = (0..height).map(|y| look.backdrop.colour(y, height)).collect();
+        let (eye, pixel_angle) = (camera.eye, 2.0 / (camera.focal() * height as f32));
         let lighting = look.light.lighting();
         let (body, body_key_light, hair, hair_key_light) = (None, Vec::new(), None, Vec::new());
-        FaceShader { maps, key_light, body, body_key_light, hair, hair_seen: &[], hair_key_light, shadow: None, patterns, relief_bounds, model, posed, identity, lighting, backdrop_kind: look.backdrop, backdrop }
+        let backdrop_kind = look.backdrop;
+        FaceShader { maps, key_light, body, body_key_light, hair, hair_seen: &[], hair_key_light, shadow: None, patterns, relief_bounds, model, posed, identity, lighting, backdrop_kind, backdrop, eye, pixel_angle }
     }
 
     /// Casts the key light's shadows from `shadow`, looked up once per vertex (offset along the
@@ -589,17 +596,39 @@ impl<'a> FaceShader<'a> {
         // of its own whiteness, the rest its strand's share of white (pure white fibres on dark
         // hair read as scribbles, half-white ones as hard stripes).
         let share = model.strand_grey.get(strand).copied().unwrap_or(0.0);
-        let grey = 0.35 * model.fibre_grey(strand, f.uv.x) + 0.65 * share;
+        // The patterns across the card are as fine as a pixel or finer: each is seen as the
+        // pixel averages it (sampled at the pixel's centre, fibres read as broken dashes).
+        let span = self.card_span(f, hair);
+        let grey = 0.35 * model.fibre_grey_over(strand, f.uv.x, span) + 0.65 * share;
         let pigment = hair_pigment(self.identity, grey);
         // Fine, low-contrast variation across the card (strong contrast between neighbouring
         // fibres and dark roots read as hard stripes, a card as a plank).
-        let fibres = 0.85 + 0.15 * value_noise(Vec3::new(f.uv.x * FIBRE_NOISE_ACROSS, f.uv.y * 4.0, strand as f32 * 1.618));
+        let fibre_noise = value_noise(Vec3::new(f.uv.x * FIBRE_NOISE_ACROSS, f.uv.y * 4.0, strand as f32 * 1.618));
+        let fibres = 0.85 + 0.15 * seen_over(fibre_noise, FIBRE_NOISE_ACROSS * span);
         let rooted = 0.8 + 0.2 * smoothstep(0.0, 0.3, f.uv.y);
         // The highlights break into streaks along the strand (fibres catching the light
         // together), so that a card's sheen does not end at its edges as a lit plank.
-        let streaks = 0.35 + 1.3 * value_noise(Vec3::new(f.uv.x * HIGHLIGHT_STREAKS_ACROSS, f.uv.y * 3.0, strand as f32 * 2.718));
+        let streak_noise = value_noise(Vec3::new(f.uv.x * HIGHLIGHT_STREAKS_ACROSS, f.uv.y * 3.0, strand as f32 * 2.718));
+        let streaks = 0.35 + 1.3 * seen_over(streak_noise, HIGHLIGHT_STREAKS_ACROSS * span);
         let look = HairLook { albedo: pigment * tone * fibres * rooted, pigment, fibres, streaks, rooted };
         self.lit_hair(&look, f.normal, f.view_dir, self.interpolate(&self.hair_key_light, f))
+    }
+
+    /// How much of its card's width (1 = all of it) one pixel spans at hair fragment `f`: the
+    /// pixel's width at that distance against the card's width there across the line of
+    /// sight. Over 1 toward the tips, where the card narrows to a point.
+    fn card_span(&self, f: &Fragment, hair: &Hair) -> f32 {
+        let width = |v: u32| {
+            // A card's vertices come in pairs, one on each edge of a row.
+            let row = (v & !1) as usize;
+            let (Some(&a), Some(&b)) = (hair.positions.get(row), hair.positions.get(row + 1)) else { return 0.0 };
+            let across = b - a;
+            (across - f.view_dir * across.dot(f.view_dir)).length()
+        };
+        let [a, b, c] = f.vertex.map(width);
+        let card = a * f.barycentric.x + b * f.barycentric.y + c * f.barycentric.z;
+        let pixel = self.pixel_angle * (f.position - self.eye).length();
+        pixel / card.max(1e-6)
     }
 
     /// Hair of `look` running along `tangent`, seen along `view`, reached by `key_reaches` of
@@ -1231,6 +1260,13 @@ fn value_noise_and_steps(p: Vec3, step: f32) -> [f32; 3] {
         blend_corners(sx, |dx, dy, dz| h[dx + ox][dy][dz]),
         blend_corners(sy, |dx, dy, dz| h[dx][dy + oy][dz]),
     ]
+}
+
+/// A value `noise` seen by a pixel that spans `cells` of the noise's lattice cells: the pixel
+/// averages them, so the contrast about the mean (0.5) falls as 1/√cells (the spread of a mean
+/// of that many independent cells); a pixel within one cell sees the value itself.
+fn seen_over(noise: f32, cells: f32) -> f32 {
+    if cells <= 1.0 { noise } else { 0.5 + (noise - 0.5) / cells.sqrt() }
 }
 
 /// Two octaves of value noise in [0, 1].
