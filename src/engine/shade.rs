@@ -488,7 +488,7 @@ impl<'a> FaceShader<'a> {
         if let Some(paint) = &scalp {
             albedo = albedo.lerp(paint.over(albedo), hair);
         }
-        let brow = brow_mask(rest);
+        let brow = brow_mask(rest, self.pixel_width(f.position));
         if brow != 0.0 {
             let grey = self.identity.hair.lerp(Vec3::splat(0.5), 0.6 * self.identity.hair_grey);
             albedo = albedo.lerp(grey * 0.8, brow);
@@ -627,8 +627,12 @@ impl<'a> FaceShader<'a> {
         };
         let [a, b, c] = f.vertex.map(width);
         let card = a * f.barycentric.x + b * f.barycentric.y + c * f.barycentric.z;
-        let pixel = self.pixel_angle * (f.position - self.eye).length();
-        pixel / card.max(1e-6)
+        self.pixel_width(f.position) / card.max(1e-6)
+    }
+
+    /// How wide (decimetres) a pixel is at `position`, across the line of sight.
+    fn pixel_width(&self, position: Vec3) -> f32 {
+        self.pixel_angle * (position - self.eye).length()
     }
 
     /// Hair of `look` running along `tangent`, seen along `view`, reached by `key_reaches` of
@@ -857,7 +861,7 @@ impl<'a> SkinPaint<'a> {
         let [a, b, c] = f.vertex.map(|v| self.model.rest[v as usize]);
         let rest = a * f.barycentric.x + b * f.barycentric.y + c * f.barycentric.z;
         let lash_line = painted.margin * (1.0 - painted.lower) * (1.0 - painted.caruncle);
-        Paint { lips: painted.lips, inside_mouth: painted.inside_mouth, hair: painted.hair, brow: brow_mask(rest), lash_line }
+        Paint { lips: painted.lips, inside_mouth: painted.inside_mouth, hair: painted.hair, brow: brow_band(rest), lash_line }
     }
 }
 
@@ -948,35 +952,94 @@ fn blob(p: Vec2, centre: Vec2, radii: Vec2) -> f32 {
     1.0 - smoothstep(0.0, 1.0, d)
 }
 
-/// Brows: a tapered arch above each eye, drawn as hair strands.
-fn brow_mask(rest: Vec3) -> f32 {
-    if rest.z < 1.1 {
-        return 0.0;
+/// Brows: a tapered arch above each eye ([`brow_point`]) filled with hairs ([`brow_hairs`])
+/// seen by a pixel `pixel` decimetres wide; the skin shows between them. How much of the skin
+/// the brow covers (0..1).
+fn brow_mask(rest: Vec3, pixel: f32) -> f32 {
+    let Some(brow) = brow_point(rest) else { return 0.0 };
+    let hairs = brow_hairs(Vec2::new(rest.x.abs(), rest.y), &brow, pixel);
+    (brow.density * (0.66 + 0.42 * smoothstep(0.2, 0.8, hairs))).min(1.0)
+}
+
+/// The brow's hairs at `p` (mirrored rest space, x ≥ 0) on `brow`, 0..1 around a mean of 0.5:
+/// strokes of noise stretched along the hairs, which grow up and out at the head, out along the
+/// body (the lower ones a little up, the upper ones a little down, meeting along the middle)
+/// and out and a little down at the tail; seen by a pixel `pixel` decimetres wide.
+fn brow_hairs(p: Vec2, brow: &BrowPoint, pixel: f32) -> f32 {
+    // Strokes along hairs at `angle` (radians up from outward).
+    let strokes = |angle: f32, seed: f32| {
+        let (sin, cos) = angle.sin_cos();
+        let (along, across) = (p.x * cos + p.y * sin, p.y * cos - p.x * sin);
+        let noise = value_noise(Vec3::new(across * BROW_STROKES_ACROSS, along * BROW_STROKES_ALONG, seed));
+        seen_over(noise, BROW_STROKES_ACROSS * pixel)
+    };
+    let t = brow.along;
+    let (head, tail) = (1.0 - smoothstep(0.06, 0.3, t), smoothstep(0.55, 0.85, t));
+    let mut hairs = 0.0;
+    if head > 0.0 {
+        hairs += head * strokes(BROW_HAIR_ANGLES[0], 0.5);
     }
+    if head + tail < 1.0 {
+        let upper = smoothstep(-0.3, 0.5, brow.across);
+        let body = (1.0 - upper) * strokes(BROW_HAIR_ANGLES[1], 3.5) + upper * strokes(BROW_HAIR_ANGLES[2], 6.5);
+        hairs += (1.0 - head - tail) * body;
+    }
+    if tail > 0.0 {
+        hairs += tail * strokes(BROW_HAIR_ANGLES[3], 9.5);
+    }
+    hairs
+}
+
+/// Which way brow hairs grow (radians up from outward): at the head, the body's lower and upper
+/// hairs, and the tail.
+const BROW_HAIR_ANGLES: [f32; 4] = [1.15, 0.3, -0.05, -0.15];
+
+/// Cells of the brow's hair strokes across and along a hair, per decimetre: hairs lie in
+/// bundles about 0.5 mm apart and 5 mm long.
+const BROW_STROKES_ACROSS: f32 = 200.0;
+const BROW_STROKES_ALONG: f32 = 20.0;
+
+/// Where a rest point lies on its side's brow.
+struct BrowPoint {
+    /// 0 at the head (beside the nose), 1 at the tail.
+    along: f32,
+    /// 0 on the brow's centre line, ±1 at its edges (positive above).
+    across: f32,
+    /// How much hair grows there (0..1): full along the body, thinning at a ragged outline,
+    /// soft and sparser toward the head, tapering at the tail.
+    density: f32,
+}
+
+/// The brow at `rest`, or `None` off it.
+fn brow_point(rest: Vec3) -> Option<BrowPoint> {
     // The brow's centre line stays within [7.405, 7.51] and its half-width below 0.036, so
-    // beyond 1.25 half-widths of that band (with a margin) the mask is zero: skip the rest.
-    if !(7.35..=7.57).contains(&rest.y) {
-        return 0.0;
+    // beyond 1.25 half-widths of that band (with a margin) there is no brow: skip the rest.
+    if rest.z < 1.1 || !(7.35..=7.57).contains(&rest.y) {
+        return None;
     }
     let x = rest.x.abs();
-    let t = (x - 0.075) / 0.44;
-    if !(-0.02..=1.05).contains(&t) {
-        return 0.0;
+    let t_raw = (x - 0.075) / 0.44;
+    if !(-0.05..=1.05).contains(&t_raw) {
+        return None;
     }
-    let t_raw = t;
-    let t = t.clamp(0.0, 1.0);
+    let t = t_raw.clamp(0.0, 1.0);
     let centre = 7.44 + 0.07 * (std::f32::consts::PI * t.powf(0.7)).sin() - 0.035 * t;
     let half = 0.030 * (1.0 - 0.55 * t) + 0.006;
     let across = (rest.y - centre) / half;
-    // Beyond 1.25 half-widths the body below is zero whatever the strand noise (at most 1).
+    // Beyond 1.25 half-widths the outline is zero whatever its raggedness (at most 0.25).
     if across.abs() > 1.25 {
-        return 0.0;
+        return None;
     }
-    // Strands lean outward and upward near the head of the brow, outward along the tail.
-    let strand = value_noise(Vec3::new((x - rest.y * (0.9 - 0.8 * t)) * 300.0, rest.y * 20.0, 0.5));
-    let body = 1.0 - smoothstep(0.55, 1.0 + 0.25 * strand, across.abs());
-    let ends = smoothstep(0.0, 0.1, t_raw + 0.02 * (strand - 0.5)) * (1.0 - smoothstep(0.9, 1.04, t));
-    (body * ends * (0.75 + 0.35 * strand)).clamp(0.0, 1.0)
+    let ragged = value_noise(Vec3::new(x * 60.0, rest.y * 60.0, 2.5));
+    let body = 1.0 - smoothstep(0.5, 1.0 + 0.25 * ragged, across.abs());
+    let ends = smoothstep(-0.04, 0.16, t_raw + 0.05 * (ragged - 0.5)) * (1.0 - smoothstep(0.9, 1.04, t));
+    let density = (body * ends * (0.8 + 0.2 * smoothstep(0.05, 0.3, t))).clamp(0.0, 1.0);
+    Some(BrowPoint { along: t, across, density })
+}
+
+/// The brow's outline filled flat, without its hairs (the cartoon's brows).
+fn brow_band(rest: Vec3) -> f32 {
+    brow_point(rest).map_or(0.0, |brow| brow.density)
 }
 
 /// The painted scalp hair reaches this far (decimetres) below the hairline the roots grow
@@ -1343,10 +1406,60 @@ mod tests {
 
     #[test]
     fn brows_sit_above_the_eyes_and_not_on_the_forehead() {
-        assert!(brow_mask(Vec3::new(0.3, 7.50, 1.4)) > 0.5);
-        assert!(brow_mask(Vec3::new(-0.3, 7.50, 1.4)) > 0.5);
-        assert_eq!(brow_mask(Vec3::new(0.3, 7.8, 1.4)), 0.0);
-        assert_eq!(brow_mask(Vec3::new(0.0, 7.5, 1.5)), 0.0);
+        assert!(brow_band(Vec3::new(0.3, 7.50, 1.4)) > 0.9);
+        assert!(brow_band(Vec3::new(-0.3, 7.50, 1.4)) > 0.9);
+        assert_eq!(brow_band(Vec3::new(0.3, 7.8, 1.4)), 0.0);
+        assert_eq!(brow_band(Vec3::new(0.0, 7.5, 1.5)), 0.0);
+        assert_eq!(brow_mask(Vec3::new(0.3, 7.8, 1.4), 0.003), 0.0);
+    }
+
+    /// The brow's hairs are strokes along the way they grow: on a patch of the head, of the
+    /// body below and above its middle, and of the tail, the hairs' pattern varies least along
+    /// its growth (the structure tensor of its gradient: the direction across which it varies
+    /// least lies within 0.15 rad of the growth, and it varies at least twice as much across).
+    /// A pixel many strokes wide sees their mean: the spread falls to under a third.
+    #[test]
+    fn brow_hairs_run_the_way_they_grow() {
+        let patches = [(0.02, 0.0, BROW_HAIR_ANGLES[0]), (0.45, -0.8, BROW_HAIR_ANGLES[1]), (0.45, 0.9, BROW_HAIR_ANGLES[2]), (0.95, 0.0, BROW_HAIR_ANGLES[3])];
+        for (along, across, grows) in patches {
+            let x = 0.075 + 0.44 * along;
+            let centre = |x: f32| {
+                let t = ((x - 0.075) / 0.44).clamp(0.0, 1.0);
+                (7.44 + 0.07 * (std::f32::consts::PI * t.powf(0.7)).sin() - 0.035 * t, 0.030 * (1.0 - 0.55 * t) + 0.006)
+            };
+            let (c, half) = centre(x);
+            let brow = BrowPoint { along, across, density: 1.0 };
+            let origin = Vec2::new(x, c + across * half);
+            let (h, e) = (0.0004, 0.00005);
+            let (mut jxx, mut jxy, mut jyy) = (0.0f64, 0.0f64, 0.0f64);
+            let mut values = Vec::new();
+            for i in -20..=20 {
+                for j in -20..=20 {
+                    let p = origin + Vec2::new(i as f32, j as f32) * h;
+                    let v = brow_hairs(p, &brow, 0.0);
+                    let gx = f64::from((brow_hairs(p + Vec2::X * e, &brow, 0.0) - v) / e);
+                    let gy = f64::from((brow_hairs(p + Vec2::Y * e, &brow, 0.0) - v) / e);
+                    (jxx, jxy, jyy) = (jxx + gx * gx, jxy + gx * gy, jyy + gy * gy);
+                    values.push(v);
+                }
+            }
+            // The direction of least variation, and the two variations' ratio.
+            let steepest = 0.5 * (2.0 * jxy).atan2(jxx - jyy);
+            let least = steepest + std::f64::consts::FRAC_PI_2;
+            let off = (least - f64::from(grows)).rem_euclid(std::f64::consts::PI);
+            let off = off.min(std::f64::consts::PI - off);
+            let root = ((jxx - jyy).powi(2) + 4.0 * jxy * jxy).sqrt();
+            let (most, least_var) = (0.5 * (jxx + jyy + root), 0.5 * (jxx + jyy - root));
+            println!("brow along {along}, across {across}: hairs run {least:.3} rad (grown at {grows}), variation across/along {:.1}", most / least_var.max(1e-12));
+            assert!(off < 0.15, "along {along}, across {across}: the hairs run {least:.2} rad, grown at {grows}");
+            assert!(most >= 2.0 * least_var, "along {along}, across {across}: {most:.1} across against {least_var:.1} along");
+            let spread = |v: &[f32]| {
+                let mean = v.iter().sum::<f32>() / v.len() as f32;
+                (v.iter().map(|x| (x - mean).powi(2)).sum::<f32>() / v.len() as f32).sqrt()
+            };
+            let far: Vec<f32> = (-20..=20).flat_map(|i| (-20..=20).map(move |j| (i, j))).map(|(i, j)| brow_hairs(origin + Vec2::new(i as f32, j as f32) * h, &brow, 0.05)).collect();
+            assert!(spread(&far) < spread(&values) / 3.0, "along {along}: spread {} seen from far, {} close", spread(&far), spread(&values));
+        }
     }
 
     #[test]
