@@ -437,6 +437,8 @@ impl<'a> FaceShader<'a> {
 
     fn shade_skin(&self, f: &Fragment) -> Vec3 {
         let rest = self.rest(f);
+        // Painted patterns finer than a pixel are seen as it averages them.
+        let pixel = self.pixel_width(f.position);
         let identity = self.identity;
         let mut painted = self.maps.at(f);
         painted.hair = painted.hair.max(self.under_hair(f));
@@ -479,16 +481,16 @@ impl<'a> FaceShader<'a> {
         }
         let beard = painted.beard * (1.0 - lips);
         if beard > 0.0 {
-            let dots = smoothstep(0.4, 0.8, value_noise(rest * 260.0));
+            let dots = smoothstep(0.4, 0.8, seen_over(value_noise(rest * 260.0), 260.0 * pixel));
             albedo = albedo.lerp(identity.hair * 0.6 + identity.skin * 0.25, beard * (0.35 + 0.5 * dots));
         }
         let hair = painted.hair;
         // The painted scalp, worked out once: its albedo here, its lighting as hair below.
-        let scalp = (hair > 0.0).then(|| scalp_paint(identity, rest));
+        let scalp = (hair > 0.0).then(|| scalp_paint(identity, rest, pixel));
         if let Some(paint) = &scalp {
             albedo = albedo.lerp(paint.over(albedo), hair);
         }
-        let brow = brow_mask(rest, self.pixel_width(f.position));
+        let brow = brow_mask(rest, pixel);
         if brow != 0.0 {
             let grey = self.identity.hair.lerp(Vec3::splat(0.5), 0.6 * self.identity.hair_grey);
             albedo = albedo.lerp(grey * 0.8, brow);
@@ -1108,14 +1110,17 @@ struct ScalpPaint {
     parting: f32,
 }
 
-fn scalp_paint(identity: &Identity, rest: Vec3) -> ScalpPaint {
+fn scalp_paint(identity: &Identity, rest: Vec3, pixel: f32) -> ScalpPaint {
     let parting = super::hair::parting_x(identity.parting);
     // How far the hair over this point is combed sideways (from the parting) rather than back.
     let sideways = if parting.is_some() { smoothstep(0.0, 0.7, rest.z) } else { 0.0 };
     let across = |back: f32, side: f32| back + (side - back) * sideways;
-    let q = Vec3::new(rest.x * across(220.0, 12.0), rest.y * across(12.0, 90.0), rest.z * across(30.0, 220.0));
-    let hair = hair_pigment(identity, identity.hair_grey) * (0.63 + 0.35 * value_noise(q));
-    let streaks = 0.35 + 1.3 * value_noise(q * 0.7 + Vec3::splat(7.0));
+    let cells = Vec3::new(across(220.0, 12.0), across(12.0, 90.0), across(30.0, 220.0));
+    let q = rest * cells;
+    // The streaks run along the comb, and a pixel spans most of them across it.
+    let spanned = cells.max_element() * pixel;
+    let hair = hair_pigment(identity, identity.hair_grey) * (0.63 + 0.35 * seen_over(value_noise(q), spanned));
+    let streaks = 0.35 + 1.3 * seen_over(value_noise(q * 0.7 + Vec3::splat(7.0)), 0.7 * spanned);
     let curled = matches!(identity.hair_texture, HairTexture::Curly | HairTexture::Coiled);
     let Some(x) = parting.filter(|_| !curled) else { return ScalpPaint { hair, streaks, parting: 0.0 } };
     let half = super::hair::PARTING_HALF_WIDTH;
@@ -1394,14 +1399,14 @@ mod tests {
         let top = Vec3::new(0.4, 8.3, 0.6);
         let skin = Vec3::new(0.8, 0.6, 0.5);
         let luma = |c: Vec3| c.dot(Vec3::splat(1.0 / 3.0));
-        assert!(luma(scalp_paint(&grey, top).over(skin)) > 0.5 * luma(hair_pigment(&grey, grey.hair_grey)));
+        assert!(luma(scalp_paint(&grey, top, 0.0).over(skin)) > 0.5 * luma(hair_pigment(&grey, grey.hair_grey)));
         assert!(luma(hair_pigment(&grey, grey.hair_grey)) > 1.3 * luma(grey.hair));
         let mut straight = table.get("wf1").unwrap().clone();
         let parting = Vec3::new(0.0, 8.3, 0.8);
         let beside = parting + Vec3::X * 3.0 * crate::engine::hair::PARTING_HALF_WIDTH;
-        assert!(scalp_paint(&straight, parting).over(skin).distance(skin * 0.85) < 0.5 * scalp_paint(&straight, beside).over(skin).distance(skin * 0.85));
+        assert!(scalp_paint(&straight, parting, 0.0).over(skin).distance(skin * 0.85) < 0.5 * scalp_paint(&straight, beside, 0.0).over(skin).distance(skin * 0.85));
         straight.hair_texture = HairTexture::Curly;
-        assert!(scalp_paint(&straight, parting).over(skin).distance(skin * 0.85) > 0.3);
+        assert!(scalp_paint(&straight, parting, 0.0).over(skin).distance(skin * 0.85) > 0.3);
     }
 
     #[test]
