@@ -591,10 +591,17 @@ fn lock_cell(rest: Vec3) -> [u32; 3] {
     [cell.x as i32 as u32, cell.y as i32 as u32, cell.z as i32 as u32]
 }
 
-/// The share of white fibres in strand `n` of a person whose hair is `grey` (0..1) grey:
-/// about `grey`, varying a little from strand to strand.
-fn greying(grey: f32, n: u32) -> f32 {
-    if grey <= 0.0 { 0.0 } else { (grey * (0.7 + 0.6 * hash01(n, 9, 3))).min(1.0) }
+/// The share of white fibres in strand `n` rooted at `rest` (base mesh) of a person whose hair
+/// is `grey` (0..1) grey: about `grey`, varying from lock to lock (0.8..1.2 of it) and only a
+/// little from strand to strand within a lock (a card stands for a bundle of many hairs, whose
+/// share of white varies little; neighbouring cards of very different grey read as stripes).
+fn greying(grey: f32, rest: Vec3, n: u32) -> f32 {
+    if grey <= 0.0 {
+        return 0.0;
+    }
+    let [x, y, z] = lock_cell(rest);
+    let lock = hash01(x ^ 0x27d4_eb2f, y, z ^ 0x1656_67b1);
+    (grey * (0.8 + 0.4 * lock) * (0.92 + 0.16 * hash01(n, 9, 3))).min(1.0)
 }
 
 /// Fixed hash of a few integers to [0, 1).
@@ -681,7 +688,7 @@ impl HairModel {
             let card = Card { width: shape.width * (0.7 + 0.6 * hash01(n as u32, 7, 1)), tip_from: tip_from(n as u32), on_head: true, combed };
             hair.add_card(&points, root.vertex, card);
             hair.strand_tone.push(lock_tone(root.rest, n as u32));
-            hair.strand_grey.push(greying(identity.hair_grey, n as u32));
+            hair.strand_grey.push(greying(identity.hair_grey, root.rest, n as u32));
         }
         if let (HairStyle::Bun, Some(centre)) = (identity.hair_style, shape.gather) {
             hair.add_bun(centre, &shape, roots.first().map_or(0, |r| r.vertex), identity.hair_grey);
@@ -784,7 +791,7 @@ impl HairModel {
                 .collect();
             self.add_card(&points, root_vertex, Card { width: shape.width * 1.2, tip_from: tip_from(n), on_head: false, combed: None });
             self.strand_tone.push(lock_tone(ball, n));
-            self.strand_grey.push(greying(grey, n));
+            self.strand_grey.push(greying(grey, ball, n));
         }
     }
 
@@ -1541,6 +1548,32 @@ mod tests {
         identity.hair_grey = 0.0;
         let dark = HairModel::new(model, &identity, &posed.neutral);
         assert!((0..dark.strand_grey.len()).all(|s| dark.fibre_grey(s, 0.5) == 0.0));
+    }
+
+    /// Greying varies from lock to lock, and little between the strands of one lock: within a
+    /// lock strands' shares of white lie within a fifth of the person's share (they spread over
+    /// six tenths of it strand by strand, and neighbouring cards read as stripes), while the
+    /// locks' own shares spread over at least a fifth of it.
+    #[test]
+    fn greying_varies_by_lock_and_little_within_one() {
+        let grey = 0.6;
+        let mut lock_shares = Vec::new();
+        for cell in 0..40u32 {
+            let corner = Vec3::new((cell % 20) as f32 - 10.0, (88 + cell / 20) as f32, 3.0) * LOCK_SIZE;
+            let shares: Vec<f32> = (0..30u32)
+                .map(|n| {
+                    let inside = Vec3::new(hash01(n, cell, 1), hash01(n, cell, 2), hash01(n, cell, 3)) * LOCK_SIZE * 0.98;
+                    greying(grey, corner + Vec3::splat(0.001) + inside, n * 97 + cell)
+                })
+                .collect();
+            let (low, high) = shares.iter().fold((f32::MAX, f32::MIN), |(l, h), &g| (l.min(g), h.max(g)));
+            assert!(high - low <= 0.2 * grey, "lock {cell}: strands' shares {low:.3}..{high:.3}");
+            lock_shares.push(shares.iter().sum::<f32>() / shares.len() as f32);
+        }
+        let (low, high) = lock_shares.iter().fold((f32::MAX, f32::MIN), |(l, h), &g| (l.min(g), h.max(g)));
+        assert!(high - low >= 0.2 * grey, "locks' shares {low:.3}..{high:.3}");
+        let mean = lock_shares.iter().sum::<f32>() / lock_shares.len() as f32;
+        assert!((mean - grey).abs() < 0.05, "mean share {mean:.3}");
     }
 
     /// A pixel sees the fibres it spans in proportion to how much of each it covers: over the
