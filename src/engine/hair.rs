@@ -1269,6 +1269,13 @@ mod tests {
         (identity, posed)
     }
 
+    /// wm2's hair with `share` of it grey.
+    fn greyed_hair(share: f32) -> HairModel {
+        let (mut identity, posed) = neutral("wm2");
+        identity.hair_grey = share;
+        HairModel::new(FaceModel::embedded(), &identity, &posed.neutral)
+    }
+
     /// The person's hair at rest, and their skin at rest in the head map's space.
     fn hair_and_skin_at_rest(model: &FaceModel, identity: &Identity) -> (Arc<HairModel>, Vec<Vec3>) {
         let posed = crate::engine::pose_expression(&crate::facs::Expression::neutral(), identity).unwrap();
@@ -1532,10 +1539,7 @@ mod tests {
     /// is white.
     #[test]
     fn greying_mixes_white_and_pigmented_fibres_within_a_card() {
-        let model = FaceModel::embedded();
-        let (mut identity, posed) = neutral("wm2");
-        identity.hair_grey = 0.4;
-        let hair = HairModel::new(model, &identity, &posed.neutral);
+        let hair = greyed_hair(0.4);
         let strands = hair.strand_grey.len();
         let fibres = FIBRES_PER_CARD as usize;
         let white: Vec<usize> = (0..strands)
@@ -1545,8 +1549,7 @@ mod tests {
         assert!(mixed * 10 > strands * 8, "{mixed} of {strands} cards mix white and pigmented fibres");
         let share = white.iter().sum::<usize>() as f32 / (strands * fibres) as f32;
         assert!((share - 0.4).abs() < 0.05, "{share} of the fibres are white");
-        identity.hair_grey = 0.0;
-        let dark = HairModel::new(model, &identity, &posed.neutral);
+        let dark = greyed_hair(0.0);
         assert!((0..dark.strand_grey.len()).all(|s| dark.fibre_grey(s, 0.5) == 0.0));
     }
 
@@ -1580,10 +1583,7 @@ mod tests {
     /// whole card their mean, within one fibre that fibre, across two halves their average.
     #[test]
     fn a_pixel_sees_the_mean_of_the_fibres_it_spans() {
-        let model = FaceModel::embedded();
-        let (mut identity, posed) = neutral("wm2");
-        identity.hair_grey = 0.5;
-        let hair = HairModel::new(model, &identity, &posed.neutral);
+        let hair = greyed_hair(0.5);
         let fibres = FIBRES_PER_CARD as usize;
         let centre = |k: usize| (k as f32 + 0.5) / FIBRES_PER_CARD;
         let mut compared = 0;

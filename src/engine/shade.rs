@@ -1025,8 +1025,7 @@ fn brow_point(rest: Vec3) -> Option<BrowPoint> {
         return None;
     }
     let t = t_raw.clamp(0.0, 1.0);
-    let centre = 7.44 + 0.07 * (std::f32::consts::PI * t.powf(0.7)).sin() - 0.035 * t;
-    let half = 0.030 * (1.0 - 0.55 * t) + 0.006;
+    let (centre, half) = brow_line(t);
     let across = (rest.y - centre) / half;
     // Beyond 1.25 half-widths the outline is zero whatever its raggedness (at most 0.25).
     if across.abs() > 1.25 {
@@ -1037,6 +1036,13 @@ fn brow_point(rest: Vec3) -> Option<BrowPoint> {
     let ends = smoothstep(-0.04, 0.16, t_raw + 0.05 * (ragged - 0.5)) * (1.0 - smoothstep(0.9, 1.04, t));
     let density = (body * ends * (0.8 + 0.2 * smoothstep(0.05, 0.3, t))).clamp(0.0, 1.0);
     Some(BrowPoint { along: t, across, density })
+}
+
+/// The brow's centre line (rest height) and half its width at `t` along it (0 at the head, 1
+/// at the tail): an arch that narrows toward the tail.
+fn brow_line(t: f32) -> (f32, f32) {
+    let centre = 7.44 + 0.07 * (std::f32::consts::PI * t.powf(0.7)).sin() - 0.035 * t;
+    (centre, 0.030 * (1.0 - 0.55 * t) + 0.006)
 }
 
 /// The brow's outline filled flat, without its hairs (the cartoon's brows).
@@ -1428,11 +1434,7 @@ mod tests {
         let patches = [(0.02, 0.0, BROW_HAIR_ANGLES[0]), (0.45, -0.8, BROW_HAIR_ANGLES[1]), (0.45, 0.9, BROW_HAIR_ANGLES[2]), (0.95, 0.0, BROW_HAIR_ANGLES[3])];
         for (along, across, grows) in patches {
             let x = 0.075 + 0.44 * along;
-            let centre = |x: f32| {
-                let t = ((x - 0.075) / 0.44).clamp(0.0, 1.0);
-                (7.44 + 0.07 * (std::f32::consts::PI * t.powf(0.7)).sin() - 0.035 * t, 0.030 * (1.0 - 0.55 * t) + 0.006)
-            };
-            let (c, half) = centre(x);
+            let (c, half) = brow_line(along);
             let brow = BrowPoint { along, across, density: 1.0 };
             let origin = Vec2::new(x, c + across * half);
             let (h, e) = (0.0004, 0.00005);
