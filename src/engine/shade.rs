@@ -10,6 +10,10 @@
 //! `lower_lid_bulge`, `nose_wrinkles`, `nasolabial`, `dimple`, `chin_boss`, `lip_press_bulge`;
 //! and `lid_raise`, which moves the upper lid's shadow on the eyeball up with a raised lid.
 //!
+//! Patterns finer than a pixel (hair fibres, the sheen's streaks, brow hairs, stubble dots, the
+//! painted scalp's streaks) are seen as the pixel averages them: their contrast falls with the
+//! number of their cells one pixel spans, worked out from the camera ([`FaceShader::new`]).
+//!
 //! Invariant: a pure function of its inputs (no randomness but fixed hashes), so the same frame
 //! shades to the same bytes on any thread.
 
