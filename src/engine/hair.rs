@@ -135,6 +135,13 @@ impl StyleShape {
     fn hangs_over_ears(&self) -> bool {
         self.gather.is_none() && self.length_back > 0.3
     }
+
+    /// Whether the hair is drawn onto the head at every height, down to the nape: short hair
+    /// that is not gathered (left to fall below the ears' tops, it stood out behind them as
+    /// spikes); other hair lies on the skull only above them.
+    fn lies_down_to_nape(&self) -> bool {
+        self.gather.is_none() && !self.hangs_over_ears()
+    }
 }
 
 /// A texture's curl: the radius and the period (length of strand per turn), decimetres.
@@ -1201,6 +1208,7 @@ fn grow(root: &Root, n: u32, identity: &Identity, shape: &StyleShape, head: &Hea
     let layer = 0.008 + 0.05 * hash01(n, 21, 0) * (length / (length + 0.3));
     let phase = std::f32::consts::TAU * curl_phase(texture, root.rest, n);
     let (curl_radius, curl_period) = curl(texture);
+    let lies_down_to_nape = shape.lies_down_to_nape();
     let mut points = vec![root.position];
     let mut centre = root.position;
     for k in 1..=shape.segments {
@@ -1216,9 +1224,7 @@ fn grow(root: &Root, n: u32, identity: &Identity, shape: &StyleShape, head: &Hea
         let mut next = centre + direction * step;
         let clearance = layer * (k as f32 / shape.segments as f32).min(1.0).sqrt() + 0.004;
         next = head.keep_outside(next, clearance);
-        // Over the skull, hair lies on it rather than standing off it; short hair lies on the
-        // head down to the nape (left to fall there, it stood out behind the ears as spikes).
-        let lies_down_to_nape = shape.gather.is_none() && !shape.hangs_over_ears();
+        // Over the skull, hair lies on it rather than standing off it; short hair all the way.
         let lying = if lies_down_to_nape { 1.0 } else { smooth(7.1, 7.4, next.y) };
         if shape.hug > 0.0 && lying > 0.0 {
             next = head.draw_towards(next, clearance, shape.hug * lying);
@@ -1459,7 +1465,7 @@ mod tests {
         let mut failures = Vec::new();
         for identity in IdentityTable::built_in().iter() {
             let shape = style_shape(identity.hair_style, identity.hair_texture);
-            if shape.hangs_over_ears() || shape.gather.is_some() || shape.hug == 0.0 {
+            if !shape.lies_down_to_nape() || shape.hug == 0.0 {
                 continue;
             }
             let (hair, skin) = hair_and_skin_at_rest(model, identity);
@@ -1559,6 +1565,7 @@ mod tests {
     /// locks' own shares spread over at least a fifth of it.
     #[test]
     fn greying_varies_by_lock_and_little_within_one() {
+        let lowest_and_highest = |values: &[f32]| values.iter().fold((f32::MAX, f32::MIN), |(l, h), &g| (l.min(g), h.max(g)));
         let grey = 0.6;
         let mut lock_shares = Vec::new();
         for cell in 0..40u32 {
@@ -1569,11 +1576,11 @@ mod tests {
                     greying(grey, corner + Vec3::splat(0.001) + inside, n * 97 + cell)
                 })
                 .collect();
-            let (low, high) = shares.iter().fold((f32::MAX, f32::MIN), |(l, h), &g| (l.min(g), h.max(g)));
+            let (low, high) = lowest_and_highest(&shares);
             assert!(high - low <= 0.2 * grey, "lock {cell}: strands' shares {low:.3}..{high:.3}");
             lock_shares.push(shares.iter().sum::<f32>() / shares.len() as f32);
         }
-        let (low, high) = lock_shares.iter().fold((f32::MAX, f32::MIN), |(l, h), &g| (l.min(g), h.max(g)));
+        let (low, high) = lowest_and_highest(&lock_shares);
         assert!(high - low >= 0.2 * grey, "locks' shares {low:.3}..{high:.3}");
         let mean = lock_shares.iter().sum::<f32>() / lock_shares.len() as f32;
         assert!((mean - grey).abs() < 0.05, "mean share {mean:.3}");
