@@ -48,7 +48,7 @@ const VIEW_FROM: Vec3 = Vec3::new(0.0, 7.4, 11.0);
 const BELOW_EARS: f32 = 6.8;
 
 /// Centre of the spherical height map of the head.
-const HEAD_CENTRE: Vec3 = Vec3::new(0.0, 7.45, 0.35);
+pub(crate) const HEAD_CENTRE: Vec3 = Vec3::new(0.0, 7.45, 0.35);
 const MAP_POLAR: usize = 48;
 const MAP_AZIMUTH: usize = 96;
 

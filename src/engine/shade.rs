@@ -10,9 +10,10 @@
 //! `lower_lid_bulge`, `nose_wrinkles`, `nasolabial`, `dimple`, `chin_boss`, `lip_press_bulge`;
 //! and `lid_raise`, which moves the upper lid's shadow on the eyeball up with a raised lid.
 //!
-//! Patterns finer than a pixel (hair fibres, the sheen's streaks, brow hairs, stubble dots, the
-//! painted scalp's streaks) are seen as the pixel averages them: their contrast falls with the
-//! number of their cells one pixel spans, worked out from the camera ([`FaceShader::new`]).
+//! Patterns finer than a pixel (hair fibres, the sheen's streaks, brow hairs, the hairline's
+//! hairs, stubble dots, the painted scalp's streaks) are seen as the pixel averages them: their
+//! contrast falls with the number of their cells one pixel spans, worked out from the camera
+//! ([`FaceShader::new`]).
 //!
 //! Invariant: a pure function of its inputs (no randomness but fixed hashes), so the same frame
 //! shades to the same bytes on any thread.
@@ -445,7 +446,7 @@ impl<'a> FaceShader<'a> {
         let pixel = self.pixel_width(f.position);
         let identity = self.identity;
         let mut painted = self.maps.at(f);
-        painted.hair = painted.hair.max(self.under_hair(f));
+        painted.hair = hairline_hairs(rest, painted.hair.max(self.under_hair(f)), identity.hair_texture, pixel);
         let lips = smoothstep(0.3, 0.7, painted.lips);
         let mouth = painted.inside_mouth;
 
@@ -1060,6 +1061,40 @@ fn brow_band(rest: Vec3) -> f32 {
 const SCALP_FRINGE: f32 = 0.05;
 const SCALP_FRINGE_SHARE: f32 = 0.85;
 
+/// The painted hair's cover where it thins out toward the bare skin (`cover` between 0 and 1,
+/// at the hairline and the fringe under the cards' roots): fine hairs growing up out of the
+/// skin instead of an even wash, the sparser the thinner the cover: straight and wavy hairs as
+/// strokes, curly ones shorter, coiled ones as tight specks. A pixel `pixel` decimetres wide
+/// sees their mean, about `cover`. Full cover and bare skin stay as they are.
+fn hairline_hairs(rest: Vec3, cover: f32, texture: HairTexture, pixel: f32) -> f32 {
+    if cover <= 0.0 || cover >= 1.0 {
+        return cover;
+    }
+    // Across the hairs: around the head (decimetres of arc at the hairline), so that the
+    // strokes run up the forehead and the temples alike.
+    let around = rest.x.atan2(rest.z - super::hair::HEAD_CENTRE.z) * 0.8;
+    let at = Vec3::new(around * HAIRLINE_STROKES_ACROSS, rest.y * hairline_stroke_cells(texture), 11.5);
+    let strokes = seen_over(value_noise(at), HAIRLINE_STROKES_ACROSS * pixel);
+    let thinning = 4.0 * cover * (1.0 - cover);
+    (cover + HAIRLINE_CONTRAST * thinning * (strokes - 0.5)).clamp(0.0, 1.0)
+}
+
+/// Cells of the hairline's hair strokes across the hairs (which grow up out of the forehead
+/// and temples), per decimetre: hairs about 0.4 mm apart.
+const HAIRLINE_STROKES_ACROSS: f32 = 250.0;
+
+/// Cells of the hairline's strokes along the hairs, per decimetre: 7 mm long straight or wavy,
+/// 2 mm curled, 0.6 mm coiled (as long as they are wide: specks).
+fn hairline_stroke_cells(texture: HairTexture) -> f32 {
+    match texture {
+        HairTexture::Straight | HairTexture::Wavy => 15.0,
+        HairTexture::Curly => 50.0,
+        HairTexture::Coiled => 160.0,
+    }
+}
+/// How far a stroke moves the cover from its mean where the cover is one half.
+const HAIRLINE_CONTRAST: f32 = 1.6;
+
 /// Scalp hair (painted under the hair cards): see [`super::hair::scalp_mask`].
 fn hair_mask(rest: Vec3, raise: f32) -> f32 {
     super::hair::scalp_mask(rest, raise, value_noise(rest * 90.0))
@@ -1441,35 +1476,91 @@ mod tests {
             let (c, half) = brow_line(along);
             let brow = BrowPoint { along, across, density: 1.0 };
             let origin = Vec2::new(x, c + across * half);
-            let (h, e) = (0.0004, 0.00005);
+            let close = Grain::of(|p| brow_hairs(p, &brow, 0.0), origin, 0.0004);
+            println!("brow along {along}, across {across}: hairs run {:.3} rad (grown at {grows}), variation across/along {:.1}", close.runs, close.anisotropy);
+            assert!(close.off(grows) < 0.15, "along {along}, across {across}: the hairs run {:.2} rad, grown at {grows}", close.runs);
+            assert!(close.anisotropy >= 2.0, "along {along}, across {across}: variation across/along {:.1}", close.anisotropy);
+            let far = Grain::of(|p| brow_hairs(p, &brow, 0.05), origin, 0.0004);
+            assert!(far.spread < close.spread / 3.0, "along {along}: spread {} seen from far, {} close", far.spread, close.spread);
+        }
+    }
+
+    /// Which way a pattern runs over a patch of 41 × 41 points `h` apart around `origin` (the
+    /// structure tensor of its finite-difference gradients) and how much it varies.
+    struct Grain {
+        /// The direction of least variation (radians from +x).
+        runs: f64,
+        /// Variation across the grain over variation along it.
+        anisotropy: f64,
+        /// Standard deviation of the values.
+        spread: f32,
+    }
+
+    impl Grain {
+        fn of(pattern: impl Fn(Vec2) -> f32, origin: Vec2, h: f32) -> Grain {
+            let e = h / 8.0;
             let (mut jxx, mut jxy, mut jyy) = (0.0f64, 0.0f64, 0.0f64);
             let mut values = Vec::new();
             for i in -20..=20 {
                 for j in -20..=20 {
                     let p = origin + Vec2::new(i as f32, j as f32) * h;
-                    let v = brow_hairs(p, &brow, 0.0);
-                    let gx = f64::from((brow_hairs(p + Vec2::X * e, &brow, 0.0) - v) / e);
-                    let gy = f64::from((brow_hairs(p + Vec2::Y * e, &brow, 0.0) - v) / e);
+                    let v = pattern(p);
+                    let gx = f64::from((pattern(p + Vec2::X * e) - v) / e);
+                    let gy = f64::from((pattern(p + Vec2::Y * e) - v) / e);
                     (jxx, jxy, jyy) = (jxx + gx * gx, jxy + gx * gy, jyy + gy * gy);
                     values.push(v);
                 }
             }
-            // The direction of least variation, and the two variations' ratio.
-            let steepest = 0.5 * (2.0 * jxy).atan2(jxx - jyy);
-            let least = steepest + std::f64::consts::FRAC_PI_2;
-            let off = (least - f64::from(grows)).rem_euclid(std::f64::consts::PI);
-            let off = off.min(std::f64::consts::PI - off);
+            let runs = 0.5 * (2.0 * jxy).atan2(jxx - jyy) + std::f64::consts::FRAC_PI_2;
             let root = ((jxx - jyy).powi(2) + 4.0 * jxy * jxy).sqrt();
-            let (most, least_var) = (0.5 * (jxx + jyy + root), 0.5 * (jxx + jyy - root));
-            println!("brow along {along}, across {across}: hairs run {least:.3} rad (grown at {grows}), variation across/along {:.1}", most / least_var.max(1e-12));
-            assert!(off < 0.15, "along {along}, across {across}: the hairs run {least:.2} rad, grown at {grows}");
-            assert!(most >= 2.0 * least_var, "along {along}, across {across}: {most:.1} across against {least_var:.1} along");
-            let spread = |v: &[f32]| {
-                let mean = v.iter().sum::<f32>() / v.len() as f32;
-                (v.iter().map(|x| (x - mean).powi(2)).sum::<f32>() / v.len() as f32).sqrt()
-            };
-            let far: Vec<f32> = (-20..=20).flat_map(|i| (-20..=20).map(move |j| (i, j))).map(|(i, j)| brow_hairs(origin + Vec2::new(i as f32, j as f32) * h, &brow, 0.05)).collect();
-            assert!(spread(&far) < spread(&values) / 3.0, "along {along}: spread {} seen from far, {} close", spread(&far), spread(&values));
+            let (most, least) = (0.5 * (jxx + jyy + root), 0.5 * (jxx + jyy - root));
+            let mean = values.iter().sum::<f32>() / values.len() as f32;
+            let spread = (values.iter().map(|x| (x - mean).powi(2)).sum::<f32>() / values.len() as f32).sqrt();
+            Grain { runs, anisotropy: most / least.max(1e-12), spread }
+        }
+
+        /// How far (radians, 0..π/2) the grain runs from the direction `angle`.
+        fn off(&self, angle: f32) -> f64 {
+            let off = (self.runs - f64::from(angle)).rem_euclid(std::f64::consts::PI);
+            off.min(std::f64::consts::PI - off)
+        }
+    }
+
+    /// Where the painted hair thins out toward the forehead it is drawn as hairs: straight hairs
+    /// as strokes running up the forehead and the temple (at least 3× more variation across
+    /// them than along, within 0.15 rad of vertical), coiled hairs as specks without a strong
+    /// grain (under 3×); the mean cover stays where it was (within 0.05), a pixel many hairs
+    /// wide sees under a third of the spread, and bare skin and full cover are left alone.
+    #[test]
+    fn the_hairline_is_drawn_as_hairs() {
+        let up = std::f32::consts::FRAC_PI_2;
+        for (texture, x, z) in [(HairTexture::Straight, 0.1, 1.1), (HairTexture::Wavy, 0.0, 1.1), (HairTexture::Coiled, 0.1, 1.1)] {
+            for cover in [0.25, 0.5, 0.75] {
+                let at = |p: Vec2, pixel: f32| hairline_hairs(Vec3::new(p.x, p.y, z), cover, texture, pixel);
+                let origin = Vec2::new(x, 8.0);
+                let close = Grain::of(|p| at(p, 0.0), origin, 0.002);
+                println!("{texture:?} cover {cover}: spread {:.3}, runs {:.3} rad, across/along {:.1}", close.spread, close.runs, close.anisotropy);
+                // The mean over a patch of hundreds of hairs (1 mm across, 5 mm up).
+                let wide: Vec<f32> = (0..100).flat_map(|i| (0..100).map(move |j| (i, j))).map(|(i, j)| at(origin + Vec2::new(i as f32 * 0.001, j as f32 * 0.005), 0.0)).collect();
+                let mean = wide.iter().sum::<f32>() / wide.len() as f32;
+                assert!((mean - cover).abs() <= 0.05, "{texture:?}: mean cover {mean} for {cover}");
+                if texture == HairTexture::Coiled {
+                    assert!(close.anisotropy < 3.0, "coiled hairs are specks, not strokes: {:.1}", close.anisotropy);
+                } else {
+                    assert!(close.off(up) < 0.15, "{texture:?}: the hairs run {:.2} rad", close.runs);
+                    assert!(close.anisotropy >= 3.0, "{texture:?}: variation across/along {:.1}", close.anisotropy);
+                }
+                let far = Grain::of(|p| at(p, 0.05), origin, 0.002);
+                assert!(far.spread < close.spread / 3.0, "{texture:?}: spread {} seen from far, {} close", far.spread, close.spread);
+            }
+            // At the temple the hairs run up the side of the head too (the patch lies in the
+            // plane x = 0.75, its first axis along z).
+            let temple = Grain::of(|p| hairline_hairs(Vec3::new(0.75, p.y, p.x), 0.5, texture, 0.0), Vec2::new(0.6, 7.8), 0.002);
+            if texture != HairTexture::Coiled {
+                assert!(temple.off(up) < 0.15 && temple.anisotropy >= 3.0, "{texture:?} at the temple: {:.2} rad, {:.1}", temple.runs, temple.anisotropy);
+            }
+            assert_eq!(hairline_hairs(Vec3::new(x, 8.0, z), 0.0, texture, 0.0), 0.0);
+            assert_eq!(hairline_hairs(Vec3::new(x, 8.0, z), 1.0, texture, 0.0), 1.0);
         }
     }
 
