@@ -531,8 +531,9 @@ fn combed_lighting(identity: &Identity, shape: &StyleShape) -> Option<(Parting, 
     matches!(identity.hair_texture, HairTexture::Straight | HairTexture::Wavy).then_some((identity.parting, shape.gather))
 }
 
-/// Fibres drawn side by side across one card (for greying).
-pub const FIBRES_PER_CARD: f32 = 9.0;
+/// Fibres drawn side by side across one card (for greying): each stands for a bundle of hairs
+/// and is narrower than a pixel even at 970×960 (a card's body is 3–20 pixels wide there).
+pub const FIBRES_PER_CARD: f32 = 24.0;
 
 /// One card's shape: half-width at the root, where (share of the drawn strand) it starts
 /// narrowing to its tip, and whether it lies along the scalp near the head.

@@ -26,7 +26,7 @@ use glam::{Vec2, Vec3};
 use super::asset::{FaceModel, Part};
 use super::body::Body;
 use super::identity::{HairTexture, Identity};
-use super::hair::{FIBRES_PER_CARD, Hair};
+use super::hair::Hair;
 use super::{BODY_PART, HAIR_PART};
 use super::look::{Backdrop, Lighting, Look};
 use super::pose::Posed;
@@ -1112,9 +1112,8 @@ fn beard_mask(rest: Vec3) -> f32 {
     upper_lip.max(jaw)
 }
 
-/// Cells of fibre noise across one hair card (finer than [`FIBRES_PER_CARD`], the fibres
-/// that grey one by one).
-const FIBRE_NOISE_ACROSS: f32 = 1.5 * FIBRES_PER_CARD;
+/// Cells of fibre noise across one hair card: the tone of bundles of fibres.
+const FIBRE_NOISE_ACROSS: f32 = 13.5;
 
 /// What a bit of hair looks like before it is lit: its albedo, its pigment (tinting the
 /// second highlight), and the fibre, streak and root factors of [`FaceShader::lit_hair`].
