@@ -11,9 +11,9 @@
 //! and `lid_raise`, which moves the upper lid's shadow on the eyeball up with a raised lid.
 //!
 //! Patterns finer than a pixel (hair fibres, the sheen's streaks, brow hairs, the hairline's
-//! hairs, stubble dots, the painted scalp's streaks) are seen as the pixel averages them: their
-//! contrast falls with the number of their cells one pixel spans, worked out from the camera
-//! ([`FaceShader::new`]).
+//! hairs, the lips' furrows, stubble dots, the painted scalp's streaks) are seen as the pixel
+//! averages them: their contrast falls with the number of their cells one pixel spans, worked
+//! out from the camera ([`FaceShader::new`]).
 //!
 //! Invariant: a pure function of its inputs (no randomness but fixed hashes), so the same frame
 //! shades to the same bytes on any thread.
@@ -465,6 +465,7 @@ impl<'a> FaceShader<'a> {
         // Micro relief (pores, stronger on the nose and cheeks) and the lines of age at rest.
         let (pores, age_crease) = self.skin_relief(rest, &painted, &mut normal);
         crease += age_crease;
+        let lip_crease = if lips > 0.0 { lip_lines(rest, lips, pixel, &mut normal) } else { 0.0 };
 
         // Albedo: skin with mottling, colour zones, lips, stubble, brows, hair, lid margins.
         // Each layer is blended in only where it is present (blending by 0 leaves the value).
@@ -482,7 +483,7 @@ impl<'a> FaceShader<'a> {
         if lips != 0.0 {
             // The vermilion border: a thin lighter line where lip meets skin.
             let border = 1.0 + 0.18 * (1.0 - (2.0 * lips - 1.0).abs()) * smoothstep(0.05, 0.3, painted.lips);
-            albedo = albedo.lerp(identity.lips, lips) * border;
+            albedo = albedo.lerp(identity.lips, lips) * border * (1.0 - 0.1 * lip_crease);
         }
         let beard = painted.beard * (1.0 - lips);
         if beard > 0.0 {
@@ -516,7 +517,7 @@ impl<'a> FaceShader<'a> {
         }
         let oily = painted.oily;
         // Matte cheeks, an oilier T-zone, pores break up the highlight; wet lids shine.
-        let specular = (0.16 + 0.3 * oily) * (1.0 - 0.35 * pores) * (1.0 - hair) * (1.0 - 0.8 * brow) + 0.5 * lips + 1.2 * wet;
+        let specular = (0.16 + 0.3 * oily) * (1.0 - 0.35 * pores) * (1.0 - hair) * (1.0 - 0.8 * brow) + 0.5 * lips * (1.0 - 0.6 * lip_crease) + 1.2 * wet;
         let shininess = 16.0 + 24.0 * lips + 48.0 * wet.min(1.0);
         let reach = self.key_reach(f);
         let surface = Surface { wrap: 0.35 * (1.0 - hair), specular, shininess };
@@ -1061,6 +1062,25 @@ fn brow_band(rest: Vec3) -> f32 {
 const SCALP_FRINGE: f32 = 0.05;
 const SCALP_FRINGE_SHARE: f32 = 0.85;
 
+/// The fine furrows of the lips' red, running up and down across it about 1.7 mm apart: a
+/// bump on `normal` across them, weighed by `lips` (how much of the red is here). Returns how
+/// deep in a furrow the point lies (0..1, for its shade and its broken sheen); a pixel `pixel`
+/// decimetres wide sees the furrows as it averages them.
+fn lip_lines(rest: Vec3, lips: f32, pixel: f32, normal: &mut Vec3) -> f32 {
+    let q = Vec3::new(rest.x * LIP_LINES_ACROSS, rest.y * LIP_LINES_ALONG, rest.z * LIP_LINES_ALONG);
+    let [n, n_x, _] = value_noise_and_steps(q, 0.35);
+    // Finer than a pixel, the furrows fade into the red's mean.
+    let seen = (LIP_LINES_ACROSS * pixel).max(1.0).sqrt().recip();
+    *normal = (*normal - Vec3::X * ((n_x - n) * 1.2 * lips * seen)).normalize();
+    // A furrow where the noise crosses its middle: lines running along the stretch.
+    (1.0 - smoothstep(0.0, 0.15, (n - 0.5).abs())) * lips * seen
+}
+
+/// Cells of the lip furrows' noise per decimetre: across them (about 1.7 mm apart) and along
+/// them, up and down the red.
+const LIP_LINES_ACROSS: f32 = 60.0;
+const LIP_LINES_ALONG: f32 = 4.0;
+
 /// The painted hair's cover where it thins out toward the bare skin (`cover` between 0 and 1,
 /// at the hairline and the fringe under the cards' roots): fine hairs growing up out of the
 /// skin instead of an even wash, the sparser the thinner the cover: straight and wavy hairs as
@@ -1560,6 +1580,36 @@ mod tests {
             }
             assert_eq!(hairline_hairs(Vec3::new(x, 8.0, z), 0.0, texture, 0.0), 0.0);
             assert_eq!(hairline_hairs(Vec3::new(x, 8.0, z), 1.0, texture, 0.0), 1.0);
+        }
+    }
+
+    /// The lips' red carries fine furrows running up and down it: the furrow pattern varies
+    /// least within 0.15 rad of upright and at least 3× as much across as along; it bends the
+    /// normal sideways only; a pixel a dozen furrows wide sees under a third of their spread;
+    /// off the red nothing changes.
+    #[test]
+    fn lip_lines_run_up_and_down_the_red() {
+        let up = std::f32::consts::FRAC_PI_2;
+        for origin in [Vec2::new(0.05, 6.62), Vec2::new(-0.15, 6.7)] {
+            let furrows = |p: Vec2, pixel: f32| lip_lines(Vec3::new(p.x, p.y, 1.5), 1.0, pixel, &mut { Vec3::Z });
+            let close = Grain::of(|p| furrows(p, 0.0), origin, 0.002);
+            println!("lip lines at {origin}: run {:.3} rad, across/along {:.1}, spread {:.3}", close.runs, close.anisotropy, close.spread);
+            assert!(close.off(up) < 0.15, "the furrows run {:.2} rad", close.runs);
+            assert!(close.anisotropy >= 3.0, "variation across/along {:.1}", close.anisotropy);
+            let far = Grain::of(|p| furrows(p, 0.2), origin, 0.002);
+            assert!(far.spread < close.spread / 3.0, "spread {} seen from far, {} close", far.spread, close.spread);
+            let bent: Vec<Vec3> = (0..200)
+                .map(|i| {
+                    let mut normal = Vec3::Z;
+                    lip_lines(Vec3::new(origin.x + i as f32 * 0.0005, origin.y, 1.5), 1.0, 0.0, &mut normal);
+                    normal
+                })
+                .collect();
+            assert!(bent.iter().all(|n| n.y.abs() < 1e-6 && (n.length() - 1.0).abs() < 1e-5));
+            assert!(bent.iter().any(|n| n.x.abs() > 0.05), "the furrows hardly bend the normal");
+            let mut normal = Vec3::Z;
+            assert_eq!(lip_lines(Vec3::new(origin.x, origin.y, 1.5), 0.0, 0.0, &mut normal), 0.0);
+            assert_eq!(normal, Vec3::Z);
         }
     }
 
