@@ -1062,25 +1062,6 @@ fn brow_band(rest: Vec3) -> f32 {
 const SCALP_FRINGE: f32 = 0.05;
 const SCALP_FRINGE_SHARE: f32 = 0.85;
 
-/// The fine furrows of the lips' red, running up and down across it about 1.7 mm apart: a
-/// bump on `normal` across them, weighed by `lips` (how much of the red is here). Returns how
-/// deep in a furrow the point lies (0..1, for its shade and its broken sheen); a pixel `pixel`
-/// decimetres wide sees the furrows as it averages them.
-fn lip_lines(rest: Vec3, lips: f32, pixel: f32, normal: &mut Vec3) -> f32 {
-    let q = Vec3::new(rest.x * LIP_LINES_ACROSS, rest.y * LIP_LINES_ALONG, rest.z * LIP_LINES_ALONG);
-    let [n, n_x, _] = value_noise_and_steps(q, 0.35);
-    // Finer than a pixel, the furrows fade into the red's mean.
-    let seen = (LIP_LINES_ACROSS * pixel).max(1.0).sqrt().recip();
-    *normal = (*normal - Vec3::X * ((n_x - n) * 1.2 * lips * seen)).normalize();
-    // A furrow where the noise crosses its middle: lines running along the stretch.
-    (1.0 - smoothstep(0.0, 0.15, (n - 0.5).abs())) * lips * seen
-}
-
-/// Cells of the lip furrows' noise per decimetre: across them (about 1.7 mm apart) and along
-/// them, up and down the red.
-const LIP_LINES_ACROSS: f32 = 60.0;
-const LIP_LINES_ALONG: f32 = 4.0;
-
 /// The painted hair's cover where it thins out toward the bare skin (`cover` between 0 and 1,
 /// at the hairline and the fringe under the cards' roots): fine hairs growing up out of the
 /// skin instead of an even wash, the sparser the thinner the cover: straight and wavy hairs as
@@ -1112,6 +1093,7 @@ fn hairline_stroke_cells(texture: HairTexture) -> f32 {
         HairTexture::Coiled => 160.0,
     }
 }
+
 /// How far a stroke moves the cover from its mean where the cover is one half.
 const HAIRLINE_CONTRAST: f32 = 1.6;
 
@@ -1131,6 +1113,25 @@ fn beard_mask(rest: Vec3) -> f32 {
     let jaw = smoothstep(jaw_top + 0.05, jaw_top - 0.08, rest.y) * smoothstep(6.0, 6.2, rest.y);
     upper_lip.max(jaw)
 }
+
+/// The fine furrows of the lips' red, running up and down across it about 1.7 mm apart: a
+/// bump on `normal` across them, weighed by `lips` (how much of the red is here). Returns how
+/// deep in a furrow the point lies (0..1, for its shade and its broken sheen); a pixel `pixel`
+/// decimetres wide sees the furrows as it averages them.
+fn lip_lines(rest: Vec3, lips: f32, pixel: f32, normal: &mut Vec3) -> f32 {
+    let q = Vec3::new(rest.x * LIP_LINES_ACROSS, rest.y * LIP_LINES_ALONG, rest.z * LIP_LINES_ALONG);
+    let [n, n_x, _] = value_noise_and_steps(q, 0.35);
+    // Finer than a pixel, the furrows fade into the red's mean.
+    let seen = fainter(LIP_LINES_ACROSS * pixel).recip();
+    *normal = (*normal - Vec3::X * ((n_x - n) * 1.2 * lips * seen)).normalize();
+    // A furrow where the noise crosses its middle: lines running along the stretch.
+    (1.0 - smoothstep(0.0, 0.15, (n - 0.5).abs())) * lips * seen
+}
+
+/// Cells of the lip furrows' noise per decimetre: across them (about 1.7 mm apart) and along
+/// them, up and down the red.
+const LIP_LINES_ACROSS: f32 = 60.0;
+const LIP_LINES_ALONG: f32 = 4.0;
 
 /// Cells of fibre noise across one hair card: the tone of bundles of fibres.
 const FIBRE_NOISE_ACROSS: f32 = 13.5;
@@ -1398,7 +1399,13 @@ fn value_noise_and_steps(p: Vec3, step: f32) -> [f32; 3] {
 /// averages them, so the contrast about the mean (0.5) falls as 1/√cells (the spread of a mean
 /// of that many independent cells); a pixel within one cell sees the value itself.
 fn seen_over(noise: f32, cells: f32) -> f32 {
-    if cells <= 1.0 { noise } else { 0.5 + (noise - 0.5) / cells.sqrt() }
+    if cells <= 1.0 { noise } else { 0.5 + (noise - 0.5) / fainter(cells) }
+}
+
+/// How many times fainter a pattern's contrast is to a pixel spanning `cells` of its cells:
+/// √cells, or 1 for a cell or less.
+fn fainter(cells: f32) -> f32 {
+    cells.max(1.0).sqrt()
 }
 
 /// Two octaves of value noise in [0, 1].
