@@ -69,6 +69,11 @@ impl Camera {
         1.0 / (self.fov_y_degrees.to_radians() * 0.5).tan()
     }
 
+    /// How wide a pixel is per unit of distance from the camera (across the line of sight).
+    pub fn pixel_angle(&self) -> f32 {
+        2.0 / (self.focal() * self.height as f32)
+    }
+
     /// View space → homogeneous pixel coordinates `(X, Y, w)`: the pixel is `(X / w, Y / w)` and
     /// `w` is the distance in front of the camera along the view axis (`-z_view`).
     ///

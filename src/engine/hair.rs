@@ -889,6 +889,14 @@ fn skull_ball(centre: Vec3, skin: &[Vec3]) -> (Vec3, f32) {
 }
 
 impl Hair {
+    /// How wide a card is at row `row` (its vertices `2 row` and `2 row + 1`, one on each edge)
+    /// across the line of sight `view` (a unit vector); 0 for a row it does not have.
+    pub fn row_width_seen(&self, row: usize, view: Vec3) -> f32 {
+        let (Some(&a), Some(&b)) = (self.positions.get(2 * row), self.positions.get(2 * row + 1)) else { return 0.0 };
+        let across = b - a;
+        (across - view * across.dot(view)).length()
+    }
+
     /// The cards' triangles as seen from `eye`, those hidden behind the skull replaced by a
     /// degenerate triangle (so that every other keeps its index, which names its strand).
     ///

@@ -429,7 +429,7 @@ mod tests {
             let identity = IdentityTable::built_in().get(id).unwrap();
             let posed = pose_expression(&Expression::neutral(), identity).unwrap();
             let camera = portrait_camera(posed.anchor, 970, 960);
-            let pixel_angle = 2.0 / (camera.focal() * 960.0);
+            let pixel_angle = camera.pixel_angle();
             let scene = Scene::new(&posed, identity, camera.eye, 0.0);
             let hair = &scene.hair;
             let mut rows: Vec<usize> = scene.hair_seen.iter().filter(|t| t[0] != t[1]).flat_map(|t| t.map(|v| v as usize / 2)).collect();
@@ -437,13 +437,10 @@ mod tests {
             rows.dedup();
             let (mut wide, mut counted) = (0usize, 0usize);
             for row in rows.into_iter().filter(|&r| hair.model.uvs[2 * r].y <= 0.4) {
-                let (a, b) = (hair.positions[2 * row], hair.positions[2 * row + 1]);
-                let view = ((a + b) * 0.5 - camera.eye).normalize();
-                let across = b - a;
-                let seen_width = (across - view * across.dot(view)).length();
-                let pixel = pixel_angle * ((a + b) * 0.5 - camera.eye).length();
+                let middle = (hair.positions[2 * row] + hair.positions[2 * row + 1]) * 0.5 - camera.eye;
+                let pixel = pixel_angle * middle.length();
                 counted += 1;
-                if seen_width / hair::FIBRES_PER_CARD > pixel {
+                if hair.row_width_seen(row, middle.normalize()) / hair::FIBRES_PER_CARD > pixel {
                     wide += 1;
                 }
             }

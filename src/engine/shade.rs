@@ -329,7 +329,7 @@ impl<'a> FaceShader<'a> {
         let key_light = vec![1.0; posed.positions.len()];
         let height = camera.height;
         let backdrop = (0..height).map(|y| look.backdrop.colour(y, height)).collect();
-        let (eye, pixel_angle) = (camera.eye, 2.0 / (camera.focal() * height as f32));
+        let (eye, pixel_angle) = (camera.eye, camera.pixel_angle());
         let lighting = look.light.lighting();
         let (body, body_key_light, hair, hair_key_light) = (None, Vec::new(), None, Vec::new());
         let backdrop_kind = look.backdrop;
@@ -626,14 +626,7 @@ impl<'a> FaceShader<'a> {
     /// pixel's width at that distance against the card's width there across the line of
     /// sight. Over 1 toward the tips, where the card narrows to a point.
     fn card_span(&self, f: &Fragment, hair: &Hair) -> f32 {
-        let width = |v: u32| {
-            // A card's vertices come in pairs, one on each edge of a row.
-            let row = (v & !1) as usize;
-            let (Some(&a), Some(&b)) = (hair.positions.get(row), hair.positions.get(row + 1)) else { return 0.0 };
-            let across = b - a;
-            (across - f.view_dir * across.dot(f.view_dir)).length()
-        };
-        let [a, b, c] = f.vertex.map(width);
+        let [a, b, c] = f.vertex.map(|v| hair.row_width_seen(v as usize / 2, f.view_dir));
         let card = a * f.barycentric.x + b * f.barycentric.y + c * f.barycentric.z;
         self.pixel_width(f.position) / card.max(1e-6)
     }
