@@ -9,7 +9,8 @@
 //! person): card vertices in the neutral head's space with the strand direction (tangent) and
 //! `uv` (across, along) per vertex, per-strand tone and share of white fibres (greying is drawn
 //! fibre by fibre across a card, not card by card), and per skin vertex how much hair lies on
-//! it ([`HairModel::skin_cover`], painted as hair by the shader); [`HairModel::posed`] moves
+//! it ([`HairModel::skin_cover`], painted as hair by the shader) and how much of the sky and
+//! the fill lights the hair over it leaves it ([`HairModel::skin_open`]); [`HairModel::posed`] moves
 //! the cards with the head for one frame (the head's rigid motion plus the local movement of
 //! each strand's root).
 //!
@@ -83,6 +84,9 @@ pub struct HairModel {
     /// Per skin vertex: how much hair lies over it (1 under and beside cards lying on the
     /// temples, forehead and scalp, 0 away from them; see [`skin_under_cards`]).
     pub skin_cover: Vec<f32>,
+    /// Per skin vertex: the share of the sky and the fill lights the hair leaves it (1 in the
+    /// open, less under and beside locks; see [`skin_open_under_cards`]).
+    pub skin_open: Vec<f32>,
 }
 
 /// One row of a card: where the strand passes, how wide the card is, and whether it lies
@@ -689,6 +693,7 @@ impl HairModel {
             head: HeadMap::new(&aligned, &ears, shape.hangs_over_ears()),
             offset,
             skin_cover: Vec::new(),
+            skin_open: Vec::new(),
         };
         let combed = combed_lighting(identity, &shape);
         for (n, root) in roots.iter().enumerate() {
@@ -702,6 +707,8 @@ impl HairModel {
             hair.add_bun(centre, &shape, roots.first().map_or(0, |r| r.vertex), identity.hair_grey);
         }
         hair.skin_cover = skin_under_cards(&hair.rows, hair.rows_per_card(), &aligned, &ears, &hair.head);
+        let normals = super::pose::vertex_normals(model, neutral);
+        hair.skin_open = skin_open_under_cards(&hair.rows, hair.rows_per_card(), &aligned, &normals);
         for p in &mut hair.positions {
             *p += offset;
         }
@@ -971,9 +978,14 @@ const SHADOW_CHORD: f32 = 0.013;
 
 /// The distance from `p` to the segment from `a` to `b`.
 fn segment_distance(p: Vec3, a: Vec3, b: Vec3) -> f32 {
+    closest_on_segment(p, a, b).distance(p)
+}
+
+/// The point of the segment `a`–`b` nearest to `p`.
+fn closest_on_segment(p: Vec3, a: Vec3, b: Vec3) -> Vec3 {
     let ab = b - a;
     let t = ((p - a).dot(ab) / ab.length_squared().max(1e-12)).clamp(0.0, 1.0);
-    (a + ab * t).distance(p)
+    a + ab * t
 }
 
 /// The midpoint of the two eyeballs' vertices in `positions`.
@@ -1107,57 +1119,170 @@ fn skin_under_cards(rows: &[CardRow], rows_per_card: usize, skin: &[Vec3], ears:
     cover
 }
 
+/// How far (decimetres) a lock shades the skin beneath it from the sky and the fill lights.
+const SHADE_REACH: f32 = 0.25;
+/// The most of the sky the hair takes from any skin: light passes between the strands.
+const SHADE_MOST: f32 = 0.75;
+/// The cubes (edge, decimetres) the cards' area is gathered in for shading the skin.
+const SHADE_CELL: f32 = 0.1;
+
+/// How open each skin vertex is to the sky and the fill lights, with the hair over it. The
+/// cards' area is gathered in cubes ([`SHADE_CELL`]) at its area-weighted centre; each cube on
+/// the side the skin faces, within [`SHADE_REACH`], takes the share of the cosine-weighted sky
+/// its area `A` subtends at distance `r`, `A cos θ / (π r² + A)` (a patch right on the skin
+/// takes all of it), with `A` no more than the cube's cross-section (cards stacked in one
+/// cube hide each other); the cubes are independent layers of strands (their open shares
+/// multiply), and no skin keeps less than `1 − SHADE_MOST`. Skin under a gap between locks is
+/// shaded by the locks around it. `normals` may run on past the skin.
+fn skin_open_under_cards(rows: &[CardRow], rows_per_card: usize, skin: &[Vec3], normals: &[Vec3]) -> Vec<f32> {
+    let area = CardArea::gathered(rows, rows_per_card, skin);
+    skin.iter()
+        .zip(normals)
+        .map(|(&p, &normal)| {
+            let mut open = 1.0;
+            area.near(p, |centre, a| {
+                let (a, to) = (a.min(SHADE_CELL * SHADE_CELL), centre - p);
+                let r = to.length();
+                let facing = if r < 1e-4 { 1.0 } else { normal.dot(to) / r };
+                if r <= SHADE_REACH && facing > 0.0 {
+                    open *= 1.0 - a * facing / (std::f32::consts::PI * r * r + a);
+                }
+            });
+            open.max(1.0 - SHADE_MOST)
+        })
+        .collect()
+}
+
+/// The cards' area gathered in cubes of [`SHADE_CELL`] over the skin's bounds (and
+/// [`SHADE_REACH`] beyond): per cube the area and its area-weighted centre.
+struct CardArea {
+    cubes: Cubes,
+    area: Vec<f32>,
+    centre: Vec<Vec3>,
+}
+
+impl CardArea {
+    /// Each card segment is cut into pieces no longer than a cube, each piece's area put in
+    /// the cube its middle lies in.
+    fn gathered(rows: &[CardRow], rows_per_card: usize, skin: &[Vec3]) -> CardArea {
+        let cubes = Cubes::around(skin, SHADE_CELL, SHADE_REACH);
+        let count = cubes.count();
+        let mut grid = CardArea { cubes, area: vec![0.0; count], centre: vec![Vec3::ZERO; count] };
+        for card in rows.chunks_exact(rows_per_card.max(2)) {
+            for pair in card.windows(2) {
+                let (a, b) = (pair[0].point, pair[1].point);
+                let length = a.distance(b);
+                let pieces = (length / SHADE_CELL).ceil().max(1.0);
+                let piece_area = (pair[0].half + pair[1].half) * length / pieces;
+                for k in 0..pieces as usize {
+                    let p = a.lerp(b, (k as f32 + 0.5) / pieces);
+                    if let Some(i) = grid.cubes.containing(p) {
+                        grid.area[i] += piece_area;
+                        grid.centre[i] += p * piece_area;
+                    }
+                }
+            }
+        }
+        for (centre, &area) in grid.centre.iter_mut().zip(&grid.area) {
+            if area > 0.0 {
+                *centre /= area;
+            }
+        }
+        grid
+    }
+
+    /// Calls `found(centre, area)` for every cube holding cards within [`SHADE_REACH`] of `p`
+    /// along each axis, in a fixed order.
+    fn near(&self, p: Vec3, mut found: impl FnMut(Vec3, f32)) {
+        self.cubes.each_between(p - Vec3::splat(SHADE_REACH), p + Vec3::splat(SHADE_REACH), |c| {
+            if self.area[c] > 0.0 {
+                found(self.centre[c], self.area[c]);
+            }
+        });
+    }
+}
+
 /// Skin vertices binned in a grid of cubes, for finding those near a segment.
 struct VertexGrid<'a> {
     points: &'a [Vec3],
-    origin: Vec3,
-    cell: f32,
-    dims: [usize; 3],
-    /// Vertex indices per cell, cell `(i, j, k)` at `(i * dims[1] + j) * dims[2] + k`.
+    cubes: Cubes,
+    /// Vertex indices per cube.
     cells: Vec<Vec<u32>>,
 }
 
 impl<'a> VertexGrid<'a> {
     fn new(points: &'a [Vec3], cell: f32) -> VertexGrid<'a> {
-        let (low, high) = points.iter().fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(l, h), &p| (l.min(p), h.max(p)));
-        let low = if low.is_finite() { low } else { Vec3::ZERO };
-        let span = (high - low).max(Vec3::ZERO);
-        let dims = [span.x, span.y, span.z].map(|s| (s / cell) as usize + 1);
-        let mut grid = VertexGrid { points, origin: low, cell, dims, cells: vec![Vec::new(); dims[0] * dims[1] * dims[2]] };
+        let cubes = Cubes::around(points, cell, 0.0);
+        let mut grid = VertexGrid { points, cells: vec![Vec::new(); cubes.count()], cubes };
         for (v, &p) in points.iter().enumerate() {
-            let index = grid.index(grid.coords(p));
+            let index = grid.cubes.index(grid.cubes.clamped(p));
             grid.cells[index].push(v as u32);
         }
         grid
     }
 
-    fn coords(&self, p: Vec3) -> [usize; 3] {
-        let c = (p - self.origin) / self.cell;
-        let at = |x: f32, n: usize| (x.max(0.0) as usize).min(n - 1);
-        [at(c.x, self.dims[0]), at(c.y, self.dims[1]), at(c.z, self.dims[2])]
+    /// Calls `found(vertex, distance)` for every vertex within `reach` of the segment `a`–`b`.
+    fn near_segment(&self, a: Vec3, b: Vec3, reach: f32, mut found: impl FnMut(usize, f32)) {
+        self.cubes.each_between(a.min(b) - Vec3::splat(reach), a.max(b) + Vec3::splat(reach), |c| {
+            for &v in &self.cells[c] {
+                let p = self.points[v as usize];
+                let d = (p - closest_on_segment(p, a, b)).length_squared();
+                if d < reach * reach {
+                    found(v as usize, d.sqrt());
+                }
+            }
+        });
+    }
+}
+
+/// A box cut into cubes: its lowest corner, the cubes' edge and how many lie along each axis;
+/// cube `(i, j, k)` is number `(i * dims[1] + j) * dims[2] + k`.
+struct Cubes {
+    origin: Vec3,
+    cell: f32,
+    dims: [usize; 3],
+}
+
+impl Cubes {
+    /// The box around `points` and `margin` beyond them (one cube at the origin for none).
+    fn around(points: &[Vec3], cell: f32, margin: f32) -> Cubes {
+        let (low, high) = points.iter().fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(l, h), &p| (l.min(p), h.max(p)));
+        let low = if low.is_finite() { low } else { Vec3::ZERO };
+        let span = (high - low).max(Vec3::ZERO) + Vec3::splat(2.0 * margin);
+        let dims = [span.x, span.y, span.z].map(|s| (s / cell) as usize + 1);
+        Cubes { origin: low - Vec3::splat(margin), cell, dims }
+    }
+
+    fn count(&self) -> usize {
+        self.dims.iter().product()
     }
 
     fn index(&self, [i, j, k]: [usize; 3]) -> usize {
         (i * self.dims[1] + j) * self.dims[2] + k
     }
 
-    /// Calls `found(vertex, distance)` for every vertex within `reach` of the segment `a`–`b`.
-    fn near_segment(&self, a: Vec3, b: Vec3, reach: f32, mut found: impl FnMut(usize, f32)) {
-        let [i0, j0, k0] = self.coords(a.min(b) - Vec3::splat(reach));
-        let [i1, j1, k1] = self.coords(a.max(b) + Vec3::splat(reach));
-        let ab = b - a;
-        let length_squared = ab.length_squared().max(1e-12);
+    /// The cube `p` lies in, or `None` outside the box.
+    fn containing(&self, p: Vec3) -> Option<usize> {
+        let c = (p - self.origin) / self.cell;
+        let at = |x: f32, n: usize| (x >= 0.0 && x < n as f32).then_some(x as usize);
+        Some(self.index([at(c.x, self.dims[0])?, at(c.y, self.dims[1])?, at(c.z, self.dims[2])?]))
+    }
+
+    /// The cube nearest `p` in the box (its coordinates clamped to the box).
+    fn clamped(&self, p: Vec3) -> [usize; 3] {
+        let c = (p - self.origin) / self.cell;
+        let at = |x: f32, n: usize| (x.max(0.0) as usize).min(n - 1);
+        [at(c.x, self.dims[0]), at(c.y, self.dims[1]), at(c.z, self.dims[2])]
+    }
+
+    /// Calls `visit(cube)` for every cube of the box that overlaps the box from `low` to
+    /// `high`, in a fixed order.
+    fn each_between(&self, low: Vec3, high: Vec3, mut visit: impl FnMut(usize)) {
+        let ([i0, j0, k0], [i1, j1, k1]) = (self.clamped(low), self.clamped(high));
         for i in i0..=i1 {
             for j in j0..=j1 {
                 for k in k0..=k1 {
-                    for &v in &self.cells[self.index([i, j, k])] {
-                        let p = self.points[v as usize];
-                        let t = ((p - a).dot(ab) / length_squared).clamp(0.0, 1.0);
-                        let d = (p - (a + ab * t)).length_squared();
-                        if d < reach * reach {
-                            found(v as usize, d.sqrt());
-                        }
-                    }
+                    visit(self.index([i, j, k]));
                 }
             }
         }
@@ -1819,9 +1944,7 @@ mod tests {
     #[test]
     fn skin_is_covered_under_and_between_lying_cards_only() {
         let model = FaceModel::embedded();
-        let (identity, posed) = neutral("wf1");
-        let hair = HairModel::new(model, &identity, &posed.neutral);
-        let skin: Vec<Vec3> = posed.neutral[..model.part(Part::Skin).vertices.end as usize].iter().map(|&p| p - hair.offset).collect();
+        let (hair, skin) = hair_and_skin_at_rest(model, &neutral("wf1").0);
         let ears = model.region("ears").unwrap();
         assert_eq!(hair.skin_cover.len(), skin.len());
         let covered: Vec<usize> = (0..skin.len()).filter(|&v| hair.skin_cover[v] > 0.0).collect();
@@ -1843,6 +1966,44 @@ mod tests {
         }
         let inside = (0..skin.len()).filter(|&v| skin[v].y >= COVER_LOW && ears[v] == 0.0 && nearest(skin[v]) == 0.0).collect::<Vec<_>>();
         assert!(inside.len() >= 150 && inside.iter().all(|&v| hair.skin_cover[v] == 1.0), "{} vertices under lying cards", inside.len());
+    }
+
+    /// Skin is shaded from the sky and the fill lights by the hair over it, by the share of
+    /// the sky a lock takes: a strip `w` wide and `L` long `r` away over the skin takes about
+    /// `Ω/π`, `Ω = wL / (r √(r² + L²/4))` (its solid angle), one on the far side of the skin
+    /// nothing. On wf1 the skin beside and under the hanging
+    /// hair (the temple between two locks, where the forehead showed through as a bright hole)
+    /// is shaded, the face in the open is not, and none loses more than `SHADE_MOST`.
+    #[test]
+    fn hair_shades_the_skin_under_it_from_the_sky() {
+        let model = FaceModel::embedded();
+        let (identity, posed) = neutral("wf1");
+        let (hair, skin) = hair_and_skin_at_rest(model, &identity);
+        let normals = crate::engine::pose::vertex_normals(model, &posed.neutral);
+        // One strip 4 mm wide and 6 cm long, 1 cm over a vertex of the cheek, then under it.
+        let v = (0..skin.len()).min_by(|&a, &b| skin[a].distance(Vec3::new(0.6, 7.2, 1.2)).total_cmp(&skin[b].distance(Vec3::new(0.6, 7.2, 1.2)))).unwrap();
+        let (n, along) = (normals[v], normals[v].cross(Vec3::Y).normalize());
+        let strip = |side: f32| -> Vec<CardRow> {
+            (0..=6).map(|k| CardRow { point: skin[v] + n * (0.1 * side) + along * (0.1 * (k as f32 - 3.0)), half: 0.02, on_head: true }).collect()
+        };
+        let (w, l, r) = (0.04f32, 0.6f32, 0.1f32);
+        let expected = w * l / (r * (r * r + 0.25 * l * l).sqrt()) / std::f32::consts::PI;
+        let over = skin_open_under_cards(&strip(1.0), 7, &skin, &normals);
+        let blocked = 1.0 - over[v];
+        assert!((blocked - expected).abs() < 0.25 * expected, "a strip 1 cm over the skin took {blocked}, about {expected} expected");
+        let under = skin_open_under_cards(&strip(-1.0), 7, &skin, &normals);
+        assert_eq!(under[v], 1.0, "a strip behind the skin shades it");
+
+        let open = &hair.skin_open;
+        assert_eq!(open.len(), skin.len());
+        assert!(open.iter().all(|&o| (1.0 - SHADE_MOST..=1.0).contains(&o)));
+        let nearest = |p: Vec3| (0..skin.len()).min_by(|&a, &b| model.rest[a].distance(p).total_cmp(&model.rest[b].distance(p))).unwrap();
+        for p in [Vec3::new(0.0, 7.08, 1.78), Vec3::new(0.0, 6.25, 1.45), Vec3::new(0.45, 6.9, 1.4), Vec3::new(-0.45, 6.9, 1.4)] {
+            assert_eq!(open[nearest(p)], 1.0, "the nose tip, chin and cheeks are in the open: {p}");
+        }
+        for p in [Vec3::new(0.50, 7.74, 1.27), Vec3::new(-0.50, 7.74, 1.27)] {
+            assert!(open[nearest(p)] <= 0.5, "the temple between the locks keeps {} of the sky: {p}", open[nearest(p)]);
+        }
     }
 
     /// Wavy hair waves lock by lock, neighbouring locks nearly together, and by height: strands

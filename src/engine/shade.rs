@@ -15,6 +15,10 @@
 //! averages them: their contrast falls with the number of their cells one pixel spans, worked
 //! out from the camera ([`FaceShader::new`]).
 //!
+//! Light: the key light with its shadow map, fill lights and a sky; skin under and beside the
+//! hair gets only the share of the sky and the fill lights the hair leaves it
+//! ([`super::hair::HairModel::skin_open`]).
+//!
 //! Invariant: a pure function of its inputs (no randomness but fixed hashes), so the same frame
 //! shades to the same bytes on any thread.
 
@@ -26,7 +30,7 @@ use glam::{Vec2, Vec3};
 use super::asset::{FaceModel, Part};
 use super::body::Body;
 use super::identity::{HairTexture, Identity};
-use super::hair::Hair;
+use super::hair::{Hair, HairModel};
 use super::{BODY_PART, HAIR_PART};
 use super::look::{Backdrop, Lighting, Look};
 use super::pose::Posed;
@@ -269,13 +273,15 @@ impl SkinMaps {
     }
 }
 
-/// How a surface takes the light: wrapped diffuse (light past the terminator) and a specular
-/// lobe's strength and exponent.
+/// How a surface takes the light: wrapped diffuse (light past the terminator), a specular
+/// lobe's strength and exponent, and the share of the sky and the fill lights that reaches it
+/// (1 in the open; the key light's share is its shadow map's).
 #[derive(Clone, Copy, Debug)]
 struct Surface {
     wrap: f32,
     specular: f32,
     shininess: f32,
+    open: f32,
 }
 
 /// The appearance channels active in this frame, with their (left, right) weights.
@@ -409,18 +415,18 @@ impl<'a> FaceShader<'a> {
     }
 
     fn lit(&self, f: &Fragment, normal: Vec3, albedo: Vec3, wrap: f32, specular: f32, shininess: f32) -> Vec3 {
-        self.lit_reached(f, normal, albedo, Surface { wrap, specular, shininess }, self.key_reach(f))
+        self.lit_reached(f, normal, albedo, Surface { wrap, specular, shininess, open: 1.0 }, self.key_reach(f))
     }
 
     /// [`Self::lit`] with the fraction of the key light reaching `f` already known.
     fn lit_reached(&self, f: &Fragment, normal: Vec3, albedo: Vec3, surface: Surface, key_reaches: f32) -> Vec3 {
-        let Surface { wrap, specular, shininess } = surface;
+        let Surface { wrap, specular, shininess, open } = surface;
         let view = f.view_dir;
         let Lighting { lights, sky, ground, shadow_floor } = &self.lighting;
         let ambient = sky.lerp(*ground, (0.5 - 0.5 * normal.y).clamp(0.0, 1.0));
-        let mut colour = albedo * ambient;
+        let mut colour = albedo * ambient * open;
         for (n, light) in lights.iter().enumerate() {
-            let reach = if n == 0 { shadow_floor + (1.0 - shadow_floor) * key_reaches } else { 1.0 };
+            let reach = if n == 0 { shadow_floor + (1.0 - shadow_floor) * key_reaches } else { open };
             let n_dot_l = normal.dot(light.direction);
             // Wrapped diffuse lets light bleed past the terminator, red most (subsurface look).
             let wrapped = Vec3::new(
@@ -520,7 +526,8 @@ impl<'a> FaceShader<'a> {
         let specular = (0.16 + 0.3 * oily) * (1.0 - 0.35 * pores) * (1.0 - hair) * (1.0 - 0.8 * brow) + 0.5 * lips * (1.0 - 0.6 * lip_crease) + 1.2 * wet;
         let shininess = 16.0 + 24.0 * lips + 48.0 * wet.min(1.0);
         let reach = self.key_reach(f);
-        let surface = Surface { wrap: 0.35 * (1.0 - hair), specular, shininess };
+        let open = self.from_hair(f, |hair| &hair.skin_open, 1.0);
+        let surface = Surface { wrap: 0.35 * (1.0 - hair), specular, shininess, open };
         let mut colour = self.lit_reached(f, normal, albedo, surface, reach);
         colour += self.subsurface_bleed(normal, albedo, reach) * (1.0 - hair);
         if let Some(paint) = scalp.filter(|_| hair > 0.85 && self.hair.is_some() && self.combed()) {
@@ -541,12 +548,19 @@ impl<'a> FaceShader<'a> {
     /// How much of the hair cards lying on the skin covers skin fragment `f`
     /// ([`super::hair::HairModel::skin_cover`]); 0 without hair.
     fn under_hair(&self, f: &Fragment) -> f32 {
+        self.from_hair(f, |hair| &hair.skin_cover, 0.0)
+    }
+
+    /// One of the hair model's per-skin-vertex `values` at skin fragment `f`, or `without`
+    /// where there is no hair.
+    fn from_hair(&self, f: &Fragment, values: impl Fn(&HairModel) -> &[f32], without: f32) -> f32 {
         match self.hair {
             Some(hair) => {
-                let [a, b, c] = f.vertex.map(|v| hair.model.skin_cover.get(v as usize).copied().unwrap_or(0.0));
+                let values = values(&hair.model);
+                let [a, b, c] = f.vertex.map(|v| values.get(v as usize).copied().unwrap_or(without));
                 a * f.barycentric.x + b * f.barycentric.y + c * f.barycentric.z
             }
-            None => 0.0,
+            None => without,
         }
     }
 
@@ -762,7 +776,7 @@ impl<'a> FaceShader<'a> {
     fn shade_teeth(&self, f: &Fragment) -> Vec3 {
         let rest = self.rest(f);
         let reach = 0.45 + 0.55 * self.key_reach(f);
-        let surface = Surface { wrap: 0.2, specular: 0.5, shininess: 40.0 };
+        let surface = Surface { wrap: 0.2, specular: 0.5, shininess: 40.0, open: 1.0 };
         // The arch is a few flat facets: its normals turn half toward the viewer, so that a
         // tooth reads as one rounded surface, not as a lit and a dark facet.
         let normal = (f.normal + f.view_dir).normalize_or(f.normal);
@@ -811,7 +825,7 @@ impl<'a> FaceShader<'a> {
         let paint = |field: usize| mix(&|v| self.maps.vertices[v][field]);
         let mut albedo = self.identity.skin * paint(SkinVertex::MOTTLE);
         albedo = albedo.lerp(albedo * Vec3::new(0.84, 0.8, 0.84), 0.6 * paint(SkinVertex::PERIORBITAL));
-        let surface = Surface { wrap: 0.35, specular: 0.16, shininess: 16.0 };
+        let surface = Surface { wrap: 0.35, specular: 0.16, shininess: 16.0, open: 1.0 };
         self.lit_reached(f, normal, albedo, surface, reach)
     }
 
