@@ -1,7 +1,7 @@
 //! Hair as geometry: strands grown from the scalp of the face model and drawn as thin cards
 //! (ribbons) narrowing to a point over their last part (each strand from its own share of its
 //! length, so tips make a soft, uneven edge), generated from the identity's hair data (style,
-//! texture, parting, hairline); no third-party hair assets. Curly and coiled hair grows more,
+//! texture, parting, hairline: [`Hairline`]); no third-party hair assets. Curly and coiled hair grows more,
 //! narrower strands than straight hair; neighbouring strands share a lock's tone; wavy hair
 //! waves with the height it has come down to, neighbouring locks nearly together (in bands).
 //!
@@ -194,19 +194,24 @@ fn curl_turned(texture: HairTexture, travelled: f32, centre: Vec3) -> f32 {
 const WAVE_FIELD_CELL: f32 = 0.6;
 const WAVE_FIELD_TURNS: f32 = 0.6;
 
-/// A smooth field (0..1) over the head: hashed values at the corners of cells
-/// [`WAVE_FIELD_CELL`] wide, blended with smoothstep weights.
+/// The field of [`curl_phase`]'s waves: see [`smooth_field`].
 fn wave_field(rest: Vec3) -> f32 {
-    let q = rest / WAVE_FIELD_CELL;
-    let cell = q.floor();
-    let t = q - cell;
+    smooth_field(rest, WAVE_FIELD_CELL, 0x1656_67b1)
+}
+
+/// A smooth field (0..1) over the head: hashed values (salted with `salt`) at the corners of
+/// cells `cell` decimetres wide, blended with smoothstep weights.
+fn smooth_field(rest: Vec3, cell: f32, salt: u32) -> f32 {
+    let q = rest / cell;
+    let corner_cell = q.floor();
+    let t = q - corner_cell;
     let w = t * t * (Vec3::splat(3.0) - 2.0 * t);
-    let [x, y, z] = [cell.x as i32, cell.y as i32, cell.z as i32];
+    let [x, y, z] = [corner_cell.x as i32, corner_cell.y as i32, corner_cell.z as i32];
     let mut sum = 0.0;
     for corner in 0..8u32 {
         let [dx, dy, dz] = [corner & 1, (corner >> 1) & 1, corner >> 2];
         let weight = (if dx == 1 { w.x } else { 1.0 - w.x }) * (if dy == 1 { w.y } else { 1.0 - w.y }) * (if dz == 1 { w.z } else { 1.0 - w.z });
-        sum += weight * hash01((x + dx as i32) as u32 ^ 0x1656_67b1, (y + dy as i32) as u32, (z + dz as i32) as u32);
+        sum += weight * hash01((x + dx as i32) as u32 ^ salt, (y + dy as i32) as u32, (z + dz as i32) as u32);
     }
     sum
 }
@@ -627,9 +632,56 @@ fn hash01(a: u32, b: u32, c: u32) -> f32 {
     (h >> 8) as f32 / (1u32 << 24) as f32
 }
 
+/// Where one person's scalp hair begins: the hairline of [`scalp_mask`] raised by their
+/// `hairline` (decimetres) and wandering up and down by a few millimetres over a centimetre or
+/// two, in a pattern of their own: drawn as one smooth curve, a hairline reads as a painted edge
+/// brushed straight across the forehead. The hair cards' roots and the painted scalp hair under
+/// them read the same line.
+#[derive(Debug, Clone, Copy)]
+pub struct Hairline {
+    raise: f32,
+    salt: u32,
+}
+
+/// The hairline's wander: the most (decimetres) each of its two scales moves it, and the edge
+/// (decimetres) of that scale's cells: 1.6 cm bays and tufts with finer notches in them.
+const HAIRLINE_WANDER: [(f32, f32); 2] = [(0.06, 0.16), (0.03, 0.06)];
+
+impl Hairline {
+    pub fn of(identity: &Identity) -> Hairline {
+        // FNV-1a of the person's id: a pattern of their own, the same on every run.
+        let salt = identity.id.bytes().fold(0x811c_9dc5u32, |h, b| (h ^ u32::from(b)).wrapping_mul(0x0100_0193));
+        Hairline { raise: identity.hairline, salt }
+    }
+
+    /// The same line `by` decimetres lower.
+    pub fn lowered(self, by: f32) -> Hairline {
+        Hairline { raise: self.raise - by, ..self }
+    }
+
+    /// Where on this person's scalp hair grows (1) or not (0), at a rest position of the base
+    /// mesh; `noise` (0..1) frays the edge (0.5: the edge's mean).
+    pub fn mask(&self, rest: Vec3, noise: f32) -> f32 {
+        scalp_mask(rest, self.raise + self.wander(rest), noise)
+    }
+
+    /// How far (decimetres) the line is moved up at `rest`: a function of where along the
+    /// line the point lies (its x and z), not of its height, so the mask still rises once from
+    /// bare skin to hair (no islands of either).
+    fn wander(&self, rest: Vec3) -> f32 {
+        let along = Vec3::new(rest.x, 0.0, rest.z);
+        HAIRLINE_WANDER
+            .iter()
+            .enumerate()
+            .map(|(k, &(most, cell))| most * (2.0 * smooth_field(along, cell, self.salt ^ (k as u32).wrapping_mul(0x27d4_eb2f)) - 1.0))
+            .sum()
+    }
+}
+
 /// Where on the scalp hair grows (1) or not (0), at a rest position of the base mesh: above a
-/// hairline that runs high over the forehead, down over the temples and low at the nape.
-pub fn scalp_mask(rest: Vec3, raise: f32, noise: f32) -> f32 {
+/// hairline that runs high over the forehead, down over the temples and low at the nape,
+/// raised by `raise` decimetres.
+fn scalp_mask(rest: Vec3, raise: f32, noise: f32) -> f32 {
     let x = rest.x.abs();
     let front = 8.02 + 2.4 * (x - 0.35).max(0.0).powi(2);
     let profile = [(0.0, 6.75), (0.35, 7.25), (0.85, 7.6), (1.15, front)];
@@ -1021,6 +1073,7 @@ fn sample_roots(model: &FaceModel, identity: &Identity, neutral: &[Vec3], shape:
     let ears = model.region("ears").unwrap_or_default();
     let curled = matches!(identity.hair_texture, HairTexture::Curly | HairTexture::Coiled);
     let parting = parting_x(identity.parting).filter(|_| !curled && shape.gather.is_none());
+    let hairline = Hairline::of(identity);
     for (t, &[a, b, c]) in model.part(Part::Skin).triangles.iter().enumerate() {
         let [ra, rb, rc] = [a, b, c].map(|v| model.rest[v as usize]);
         let centre = (ra + rb + rc) / 3.0;
@@ -1028,7 +1081,7 @@ fn sample_roots(model: &FaceModel, identity: &Identity, neutral: &[Vec3], shape:
             continue;
         }
         let ear = [a, b, c].iter().map(|&v| ears.get(v as usize).copied().unwrap_or(0.0)).fold(0.0, f32::max);
-        let mask = scalp_mask(centre, identity.hairline, 0.5) * (1.0 - ear);
+        let mask = hairline.mask(centre, 0.5) * (1.0 - ear);
         if mask < 0.3 {
             continue;
         }
@@ -1422,6 +1475,34 @@ mod tests {
         let hair = HairModel::cached(model, identity, &posed.neutral);
         let skin = posed.neutral[..model.part(Part::Skin).vertices.end as usize].iter().map(|&p| p - hair.offset).collect();
         (hair, skin)
+    }
+
+    /// The hairline wanders up and down across the forehead, by millimetres (over a few at
+    /// least, never beyond the most its scales allow), in a pattern of each person's own and
+    /// the same on every call; the mask follows it.
+    #[test]
+    fn the_hairline_wanders_in_a_pattern_of_the_persons_own() {
+        let table = IdentityTable::built_in();
+        let line = |id: &str| {
+            let hairline = Hairline::of(table.get(id).unwrap());
+            let front: Vec<f32> = (0..=70).map(|i| hairline.wander(Vec3::new(-0.35 + 0.01 * i as f32, 8.0, 1.15))).collect();
+            (hairline, front)
+        };
+        let most: f32 = HAIRLINE_WANDER.iter().map(|&(most, _)| most).sum();
+        let (wm1, front1) = line("wm1");
+        let (_, front2) = line("wf1");
+        for front in [&front1, &front2] {
+            let (low, high) = front.iter().fold((f32::MAX, f32::MIN), |(l, h), &w| (l.min(w), h.max(w)));
+            assert!(low >= -most && high <= most, "wander {low}..{high} beyond ±{most}");
+            assert!(high - low >= 0.03, "the hairline wanders only {} dm across the forehead", high - low);
+        }
+        let apart = front1.iter().zip(&front2).map(|(a, b)| (a - b).abs()).sum::<f32>() / front1.len() as f32;
+        assert!(apart >= 0.01, "two people's hairlines differ by {apart} dm on average");
+        assert_eq!(line("wm1").1, front1);
+        // Where the line wanders down, hair grows lower: the mask at the wandered line is one half.
+        let at = Vec3::new(0.1, 0.0, 1.2);
+        let height = 8.02 + table.get("wm1").unwrap().hairline + wm1.wander(at);
+        assert!((wm1.mask(Vec3::new(at.x, height, at.z), 0.5) - 0.5).abs() < 0.02);
     }
 
     /// The value nine in ten of `values` lie at or under (None for none).

@@ -30,7 +30,7 @@ use glam::{Vec2, Vec3};
 use super::asset::{FaceModel, Part};
 use super::body::Body;
 use super::identity::{HairTexture, Identity};
-use super::hair::{Hair, HairModel};
+use super::hair::{Hair, HairModel, Hairline};
 use super::{BODY_PART, HAIR_PART};
 use super::look::{Backdrop, Lighting, Look};
 use super::pose::Posed;
@@ -240,6 +240,7 @@ impl SkinMaps {
     fn new(model: &FaceModel, identity: &Identity) -> SkinMaps {
         let skin = &model.rest[..model.part(Part::Skin).vertices.end as usize];
         let regions = regions(model);
+        let hairline = Hairline::of(identity);
         let vertices = skin
             .iter()
             .enumerate()
@@ -250,7 +251,7 @@ impl SkinMaps {
                     cheek: blob(Vec2::new(p.x.abs(), p.y), Vec2::new(0.38, 6.95), Vec2::new(0.14, 0.12)),
                     oily: blob(Vec2::new(p.x, p.y), Vec2::new(0.0, 7.3), Vec2::new(0.12, 0.7)),
                     beard: beard_mask(p) * identity.stubble,
-                    hair: hair_mask(p, identity.hairline).max(SCALP_FRINGE_SHARE * hair_mask(p, identity.hairline - SCALP_FRINGE)) * (1.0 - regions.ears[i]),
+                    hair: hair_mask(p, hairline).max(SCALP_FRINGE_SHARE * hair_mask(p, hairline.lowered(SCALP_FRINGE))) * (1.0 - regions.ears[i]),
                     lips: regions.lips[i],
                     inside_mouth: regions.inside_mouth[i],
                     margin,
@@ -1081,7 +1082,11 @@ fn hairline_hairs(rest: Vec3, cover: f32, texture: HairTexture, pixel: f32) -> f
     // Across the hairs: around the head (decimetres of arc at the hairline), so that the
     // strokes run up the forehead and the temples alike.
     let around = rest.x.atan2(rest.z - super::hair::HEAD_CENTRE.z) * 0.8;
-    let at = Vec3::new(around * HAIRLINE_STROKES_ACROSS, rest.y * hairline_stroke_cells(texture), 11.5);
+    let across = around * HAIRLINE_STROKES_ACROSS;
+    // Each few hairs start and end at heights of their own: strokes on the noise's lattice rows
+    // alone all end on the same lines, a comb's teeth across the forehead.
+    let stagger = 1.5 * value_noise(Vec3::new(across * 0.37, 3.5, 5.5));
+    let at = Vec3::new(across, rest.y * hairline_stroke_cells(texture) + stagger, 11.5);
     let strokes = seen_over(value_noise(at), HAIRLINE_STROKES_ACROSS * pixel);
     let thinning = 4.0 * cover * (1.0 - cover);
     (cover + HAIRLINE_CONTRAST * thinning * (strokes - 0.5)).clamp(0.0, 1.0)
@@ -1104,9 +1109,9 @@ fn hairline_stroke_cells(texture: HairTexture) -> f32 {
 /// How far a stroke moves the cover from its mean where the cover is one half.
 const HAIRLINE_CONTRAST: f32 = 1.6;
 
-/// Scalp hair (painted under the hair cards): see [`super::hair::scalp_mask`].
-fn hair_mask(rest: Vec3, raise: f32) -> f32 {
-    super::hair::scalp_mask(rest, raise, value_noise(rest * 90.0))
+/// Scalp hair (painted under the hair cards): see [`Hairline`].
+fn hair_mask(rest: Vec3, hairline: Hairline) -> f32 {
+    hairline.mask(rest, value_noise(rest * 90.0))
 }
 
 /// Beard shadow: jaw, chin and upper lip, below the cheeks.
@@ -1198,7 +1203,7 @@ fn scalp_paint(identity: &Identity, rest: Vec3, pixel: f32) -> ScalpPaint {
     let half = super::hair::PARTING_HALF_WIDTH;
     let line = (1.0 - smoothstep(0.5 * half, half, (rest.x - x).abs())) * smoothstep(0.2, 0.6, rest.z);
     // The parting runs through the hair, not beyond the roots into the painted fringe.
-    let parting = if line == 0.0 { 0.0 } else { 0.75 * line * super::hair::scalp_mask(rest, identity.hairline, 0.5) };
+    let parting = if line == 0.0 { 0.0 } else { 0.75 * line * Hairline::of(identity).mask(rest, 0.5) };
     ScalpPaint { hair, streaks, parting }
 }
 
@@ -1595,6 +1600,25 @@ mod tests {
             assert_eq!(hairline_hairs(Vec3::new(x, 8.0, z), 0.0, texture, 0.0), 0.0);
             assert_eq!(hairline_hairs(Vec3::new(x, 8.0, z), 1.0, texture, 0.0), 1.0);
         }
+    }
+
+    /// The hairline's hairs start and end at heights of their own: across hundreds of
+    /// columns of hairs, the strokes' spread is about the same at every height within a
+    /// stroke's length: within a quarter (1.14 measured). Strokes ending on shared rows made
+    /// those rows a comb's edge, the spread there 1.38 times that between them.
+    #[test]
+    fn the_hairline_hairs_end_at_heights_of_their_own() {
+        let columns = 600;
+        let spread_at = |y: f32| {
+            let values: Vec<f32> = (0..columns).map(|i| hairline_hairs(Vec3::new(-0.3 + 0.001 * i as f32, y, 1.1), 0.5, HairTexture::Straight, 0.0)).collect();
+            let mean = values.iter().sum::<f32>() / columns as f32;
+            (values.iter().map(|v| (v - mean).powi(2)).sum::<f32>() / columns as f32).sqrt()
+        };
+        let cell = 1.0 / hairline_stroke_cells(HairTexture::Straight);
+        let spreads: Vec<f32> = (0..16).map(|k| spread_at(8.0 + cell * k as f32 / 16.0)).collect();
+        let (low, high) = spreads.iter().fold((f32::MAX, f32::MIN), |(l, h), &s| (l.min(s), h.max(s)));
+        println!("spreads {low:.4} {high:.4} ratio {:.3}", high / low);
+        assert!(high <= 1.25 * low, "spread of the strokes {low:.3}..{high:.3} over a stroke's length");
     }
 
     /// The lips' red carries fine furrows running up and down it: the furrow pattern varies
