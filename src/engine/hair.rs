@@ -647,6 +647,10 @@ pub struct Hairline {
 /// (decimetres) of that scale's cells: 1.6 cm bays and tufts with finer notches in them.
 const HAIRLINE_WANDER: [(f32, f32); 2] = [(0.06, 0.16), (0.03, 0.06)];
 
+/// How far (decimetres) from the unwandered line the mask can be neither 0 nor 1: the most the
+/// line wanders, the widest edge ([`scalp_mask`] with noise 1) and a margin for rounding.
+const HAIRLINE_REACH: f32 = HAIRLINE_WANDER[0].0 + HAIRLINE_WANDER[1].0 + 0.045 + 0.01;
+
 impl Hairline {
     pub fn of(identity: &Identity) -> Hairline {
         // FNV-1a of the person's id: a pattern of their own, the same on every run.
@@ -662,6 +666,12 @@ impl Hairline {
     /// Where on this person's scalp hair grows (1) or not (0), at a rest position of the base
     /// mesh; `noise` (0..1) frays the edge (0.5: the edge's mean).
     pub fn mask(&self, rest: Vec3, noise: f32) -> f32 {
+        // Farther from the unwandered line than the line can wander and its edge reach, the
+        // mask is 0 or 1 whatever the wander: skip working it out (most of the head).
+        let from_line = rest.y - (scalp_line(rest) + self.raise);
+        if from_line.abs() > HAIRLINE_REACH {
+            return if from_line > 0.0 { 1.0 } else { 0.0 };
+        }
         scalp_mask(rest, self.raise + self.wander(rest), noise)
     }
 
@@ -682,16 +692,21 @@ impl Hairline {
 /// hairline that runs high over the forehead, down over the temples and low at the nape,
 /// raised by `raise` decimetres.
 fn scalp_mask(rest: Vec3, raise: f32, noise: f32) -> f32 {
+    let line = scalp_line(rest);
+    let edge = 0.025 + 0.02 * noise;
+    smooth(line + raise - edge, line + raise + edge, rest.y)
+}
+
+/// The height (rest y) of [`scalp_mask`]'s hairline, unraised, above `rest`'s place on the head.
+fn scalp_line(rest: Vec3) -> f32 {
     let x = rest.x.abs();
     let front = 8.02 + 2.4 * (x - 0.35).max(0.0).powi(2);
     let profile = [(0.0, 6.75), (0.35, 7.25), (0.85, 7.6), (1.15, front)];
     let z = rest.z.clamp(0.0, 1.15);
-    let line = profile.windows(2).find(|w| z <= w[1].0).map_or(front, |w| {
+    profile.windows(2).find(|w| z <= w[1].0).map_or(front, |w| {
         let t = smooth(w[0].0, w[1].0, z);
         w[0].1 + (w[1].1 - w[0].1) * t
-    });
-    let edge = 0.025 + 0.02 * noise;
-    smooth(line + raise - edge, line + raise + edge, rest.y)
+    })
 }
 
 fn smooth(e0: f32, e1: f32, x: f32) -> f32 {
