@@ -418,6 +418,40 @@ mod tests {
         assert!(ratio <= 1.15, "hair drawn small is {ratio:.3} times as busy as drawn large and seen small");
     }
 
+    /// Lit brown hair stays brown: on wm1 (brown, side-parted, lit from the upper left) the
+    /// brightest quarter of the pixels of hair keeps at least seven tenths of the colour
+    /// saturation of the darker half. With a white sheen over the whole lit side it kept 0.53
+    /// (it read as grey hair beside brown); now 0.77.
+    #[test]
+    fn lit_hair_keeps_its_hue() {
+        let identity = IdentityTable::built_in().get("wm1").unwrap();
+        let posed = pose_expression(&Expression::neutral(), identity).unwrap();
+        let image = render_posed(&posed, identity, FrameSettings { width: 485, height: 480, ..Default::default() }).unwrap();
+        let camera = portrait_camera(posed.anchor, 485, 480);
+        let scene = Scene::new(&posed, identity, camera.eye, 0.0);
+        let items = scene.items(&posed);
+        let hair_item = (items.len() - 1) as u32;
+        let visibility = raster::visibility(&items, &camera, &still_options(None));
+        let mut pixels: Vec<(f32, f32)> = Vec::new();
+        for y in 0..480u32 {
+            for x in 0..485u32 {
+                if visibility.pixel(x, y).iter().all(|h| h.is_some_and(|h| h.item == hair_item)) {
+                    let i = (y * 485 + x) as usize * 3;
+                    let [r, g, b] = [0, 1, 2].map(|k| f32::from(image.data[i + k]));
+                    let (most, least) = (r.max(g).max(b), r.min(g).min(b));
+                    pixels.push((r + g + b, (most - least) / most.max(1.0)));
+                }
+            }
+        }
+        assert!(pixels.len() > 5000, "only {} pixels of hair", pixels.len());
+        pixels.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mean = |part: &[(f32, f32)]| part.iter().map(|p| p.1).sum::<f32>() / part.len() as f32;
+        let n = pixels.len();
+        let (dark, bright) = (mean(&pixels[..n / 2]), mean(&pixels[3 * n / 4..]));
+        println!("wm1 hair saturation: darker half {dark:.3}, brightest quarter {bright:.3} (×{:.2})", bright / dark);
+        assert!(bright >= 0.7 * dark, "lit hair keeps {:.2} of the saturation of the darker hair", bright / dark);
+    }
+
     /// A card stands for a lock of many hairs, and the fibres drawn across it (white ones among
     /// pigmented ones on greying hair) for bundles of them: even drawn large (970×960) a fibre
     /// is no wider than a pixel on at least 95 % of the rows of card the camera sees (over the

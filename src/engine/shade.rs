@@ -672,7 +672,11 @@ impl<'a> FaceShader<'a> {
                 let along = (1.0 - t_h * t_h).max(0.0).sqrt();
                 let primary = lobe_power(along, HAIR_LOBES[0]) * 0.072 * sheen * streaks;
                 let secondary = lobe_power(along, HAIR_LOBES[1]) * 0.12 * fibres * sheen * streaks;
-                colour += light.colour * (Vec3::splat(primary) + pigment * 2.0 * secondary) * reach * rooted;
+                // The surface sheen takes a little of the hair's own hue (a white sheen over
+                // all of a lit side of brown hair read as grey hair).
+                let hue = pigment / pigment.max_element().max(1e-4);
+                let sheen_colour = Vec3::splat(1.0 - PRIMARY_HUE) + hue * PRIMARY_HUE;
+                colour += light.colour * (sheen_colour * primary + pigment * 2.0 * secondary) * reach * rooted;
             }
         }
         colour
@@ -1167,6 +1171,10 @@ const HIGHLIGHT_STREAKS_ACROSS: f32 = 0.7 * FIBRE_NOISE_ACROSS;
 /// cards at slightly different angles share a highlight (at 48 and 12 each card lit up or
 /// not on its own, a patchwork of planks over the crown).
 const HAIR_LOBES: [f32; 2] = [20.0, 8.0];
+
+/// How much of the hair's own hue (its pigment at full brightness) the primary highlight takes:
+/// 0 a white sheen, 1 the pigment's hue.
+const PRIMARY_HUE: f32 = 0.6;
 
 /// The pigment of `identity`'s hair with `grey` (0..1) of it white: the pigmented fibres of
 /// greying hair lose some of their colour too.
