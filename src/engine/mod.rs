@@ -387,21 +387,16 @@ mod tests {
     /// times as busy as the large one seen small (now 0.97).
     #[test]
     fn hair_is_no_busier_drawn_small_than_drawn_large_and_seen_small() {
+        let (small, hair_pixels) = neutral_with_hair_pixels("hlf2", 485, 480);
         let identity = IdentityTable::built_in().get("hlf2").unwrap();
         let posed = pose_expression(&Expression::neutral(), identity).unwrap();
-        let render = |width, height| render_posed(&posed, identity, FrameSettings { width, height, ..Default::default() }).unwrap();
-        let (small, large) = (render(485, 480), render(970, 960));
+        let large = render_posed(&posed, identity, FrameSettings { width: 970, height: 960, ..Default::default() }).unwrap();
         let luminance = |image: &RgbImage, x: usize, y: usize| {
             let i = (y * image.width as usize + x) * 3;
             image.data[i..i + 3].iter().map(|&c| f32::from(c)).sum::<f32>() / 3.0
         };
         let seen_small = |x: usize, y: usize| (0..4).map(|k| luminance(&large, 2 * x + k % 2, 2 * y + k / 2)).sum::<f32>() / 4.0;
-        let camera = portrait_camera(posed.anchor, 485, 480);
-        let scene = Scene::new(&posed, identity, camera.eye, 0.0);
-        let items = scene.items(&posed);
-        let hair_item = (items.len() - 1) as u32;
-        let visibility = raster::visibility(&items, &camera, &still_options(None));
-        let hair = |x: usize, y: usize| visibility.pixel(x as u32, y as u32).iter().all(|h| h.is_some_and(|h| h.item == hair_item));
+        let hair = |x: usize, y: usize| hair_pixels[y * 485 + x];
         let (mut steps_small, mut steps_large, mut pairs) = (0.0, 0.0, 0usize);
         for y in 0..480 {
             for x in 0..484 {
@@ -418,31 +413,39 @@ mod tests {
         assert!(ratio <= 1.15, "hair drawn small is {ratio:.3} times as busy as drawn large and seen small");
     }
 
+    /// `id` at rest drawn at `width`×`height`, and which of its pixels show hair alone (every
+    /// sample of the pixel on the hair), in image order.
+    fn neutral_with_hair_pixels(id: &str, width: u32, height: u32) -> (RgbImage, Vec<bool>) {
+        let identity = IdentityTable::built_in().get(id).unwrap();
+        let posed = pose_expression(&Expression::neutral(), identity).unwrap();
+        let image = render_posed(&posed, identity, FrameSettings { width, height, ..Default::default() }).unwrap();
+        let camera = portrait_camera(posed.anchor, width, height);
+        let scene = Scene::new(&posed, identity, camera.eye, 0.0);
+        let items = scene.items(&posed);
+        let hair_item = (items.len() - 1) as u32;
+        let visibility = raster::visibility(&items, &camera, &still_options(None));
+        let hair = (0..height).flat_map(|y| (0..width).map(move |x| (x, y)));
+        let hair = hair.map(|(x, y)| visibility.pixel(x, y).iter().all(|h| h.is_some_and(|h| h.item == hair_item))).collect();
+        (image, hair)
+    }
+
     /// Lit brown hair stays brown: on wm1 (brown, side-parted, lit from the upper left) the
     /// brightest quarter of the pixels of hair keeps at least seven tenths of the colour
     /// saturation of the darker half. With a white sheen over the whole lit side it kept 0.53
     /// (it read as grey hair beside brown); now 0.77.
     #[test]
     fn lit_hair_keeps_its_hue() {
-        let identity = IdentityTable::built_in().get("wm1").unwrap();
-        let posed = pose_expression(&Expression::neutral(), identity).unwrap();
-        let image = render_posed(&posed, identity, FrameSettings { width: 485, height: 480, ..Default::default() }).unwrap();
-        let camera = portrait_camera(posed.anchor, 485, 480);
-        let scene = Scene::new(&posed, identity, camera.eye, 0.0);
-        let items = scene.items(&posed);
-        let hair_item = (items.len() - 1) as u32;
-        let visibility = raster::visibility(&items, &camera, &still_options(None));
-        let mut pixels: Vec<(f32, f32)> = Vec::new();
-        for y in 0..480u32 {
-            for x in 0..485u32 {
-                if visibility.pixel(x, y).iter().all(|h| h.is_some_and(|h| h.item == hair_item)) {
-                    let i = (y * 485 + x) as usize * 3;
-                    let [r, g, b] = [0, 1, 2].map(|k| f32::from(image.data[i + k]));
-                    let (most, least) = (r.max(g).max(b), r.min(g).min(b));
-                    pixels.push((r + g + b, (most - least) / most.max(1.0)));
-                }
-            }
-        }
+        let (image, hair_pixels) = neutral_with_hair_pixels("wm1", 485, 480);
+        let mut pixels: Vec<(f32, f32)> = hair_pixels
+            .iter()
+            .enumerate()
+            .filter(|&(_, &hair)| hair)
+            .map(|(i, _)| {
+                let [r, g, b] = [0, 1, 2].map(|k| f32::from(image.data[i * 3 + k]));
+                let (most, least) = (r.max(g).max(b), r.min(g).min(b));
+                (r + g + b, (most - least) / most.max(1.0))
+            })
+            .collect();
         assert!(pixels.len() > 5000, "only {} pixels of hair", pixels.len());
         pixels.sort_by(|a, b| a.0.total_cmp(&b.0));
         let mean = |part: &[(f32, f32)]| part.iter().map(|p| p.1).sum::<f32>() / part.len() as f32;
