@@ -1494,7 +1494,8 @@ mod tests {
 
     /// The hairline wanders up and down across the forehead, by millimetres (over a few at
     /// least, never beyond the most its scales allow), in a pattern of each person's own and
-    /// the same on every call; the mask follows it.
+    /// the same on every call; the mask follows it and rises once from bare skin to hair up
+    /// every line over the head.
     #[test]
     fn the_hairline_wanders_in_a_pattern_of_the_persons_own() {
         let table = IdentityTable::built_in();
@@ -1514,6 +1515,14 @@ mod tests {
         let apart = front1.iter().zip(&front2).map(|(a, b)| (a - b).abs()).sum::<f32>() / front1.len() as f32;
         assert!(apart >= 0.01, "two people's hairlines differ by {apart} dm on average");
         assert_eq!(line("wm1").1, front1);
+        // Up every line over the head the mask rises once, from bare skin to hair: no islands.
+        for x in (-8..=8).map(|i| 0.1 * i as f32) {
+            for z in [0.2, 0.6, 1.0, 1.2] {
+                let up: Vec<f32> = (0..=250).map(|j| wm1.mask(Vec3::new(x, 6.5 + 0.01 * j as f32, z), 0.5)).collect();
+                assert!(up.windows(2).all(|w| w[1] >= w[0]), "the mask falls somewhere above ({x}, {z})");
+                assert!(up[0] == 0.0 && up[250] == 1.0, "the mask at ({x}, {z}) runs {}..{}", up[0], up[250]);
+            }
+        }
         // Where the line wanders down, hair grows lower: the mask at the wandered line is one half.
         let at = Vec3::new(0.1, 0.0, 1.2);
         let height = 8.02 + table.get("wm1").unwrap().hairline + wm1.wander(at);
