@@ -1525,7 +1525,7 @@ mod tests {
         }
         // Where the line wanders down, hair grows lower: the mask at the wandered line is one half.
         let at = Vec3::new(0.1, 0.0, 1.2);
-        let height = 8.02 + table.get("wm1").unwrap().hairline + wm1.wander(at);
+        let height = scalp_line(at) + wm1.raise + wm1.wander(at);
         assert!((wm1.mask(Vec3::new(at.x, height, at.z), 0.5) - 0.5).abs() < 0.02);
     }
 
