@@ -19,6 +19,13 @@ use super::asset::FaceModel;
 /// How far the resting upper lids are lifted (fraction of the eyeWide targets).
 const NEUTRAL_LID_LIFT: f32 = 0.3;
 
+/// The CC0 female macro targets raise the inner brows and turn the mouth's corners down at
+/// rest, so that women looked worried or sad at neutral (MediaPipe read browInnerUp 0.65–0.83);
+/// every person is given these two identity targets in proportion to how female the shape
+/// is, which levels the brows and the corners (test `the_resting_face_follows_how_female_the_shape_is`;
+/// MediaPipe's readings in the README).
+const RESTING_FACE: [(&str, f32); 2] = [("identity/eyebrows/eyebrows-angle-down", 0.3), ("identity/mouth/mouth-angles-up", 0.25)];
+
 /// The largest identity file read (a few hundred people).
 pub const MAX_FILE_BYTES: usize = 1 << 20;
 
@@ -221,6 +228,7 @@ impl Identity {
                 }
             }
         }
+        weights.extend(RESTING_FACE.iter().filter(|_| self.sex < 1.0).map(|(name, w)| (name.to_string(), w * (1.0 - self.sex))));
         weights.extend(self.shape.iter().map(|(name, w)| (name.clone(), *w)));
         // The base mesh's resting lids sit low over the iris; open them a little for everyone.
         weights.extend(["faceunits/eyeWideLeft", "faceunits/eyeWideRight"].map(|n| (n.to_string(), NEUTRAL_LID_LIFT)));
@@ -433,6 +441,27 @@ mod tests {
         let african = table.iter().take(8).filter(|i| i.ancestry.african > 0.5).count();
         assert_eq!((men, african), (4, 4));
         assert!(matches!(table.get("nobody"), Err(IdentityError::Unknown(_))));
+    }
+
+    /// Every person's shape carries the resting-face targets in proportion to how female it is;
+    /// the four evaluation women, who had them written in their shapes, keep the totals they
+    /// had (wf1 and wf2 0.3 and 0.25, bf1 and bf2 0.35 and 0.4).
+    #[test]
+    fn the_resting_face_follows_how_female_the_shape_is() {
+        let total = |identity: &Identity, name: &str| identity.shape_weights().iter().filter(|(n, _)| n == name).map(|(_, w)| *w).sum::<f32>();
+        let [brows, corners] = RESTING_FACE.map(|(name, _)| name);
+        let table = IdentityTable::built_in();
+        for (id, want) in [("wf1", [0.3, 0.25]), ("wf2", [0.3, 0.25]), ("bf1", [0.35, 0.4]), ("bf2", [0.35, 0.4]), ("wm1", [0.0, 0.0]), ("hlm2", [0.0, 0.0])] {
+            let identity = table.get(id).unwrap();
+            let got = [total(identity, brows), total(identity, corners)];
+            assert!(got.iter().zip(want).all(|(g, w)| (g - w).abs() < 1e-6), "{id}: {got:?}, want {want:?}");
+        }
+        for identity in table.iter().filter(|i| i.sex == 0.0 && !["bf1", "bf2"].contains(&i.id.as_str())) {
+            assert_eq!([total(identity, brows), total(identity, corners)], [0.3, 0.25], "{}", identity.id);
+        }
+        let halfway = IdentityTable::from_toml(&GOOD.replace("sex = 1", "sex = 0.5"), FaceModel::embedded()).unwrap();
+        let x = halfway.get("x").unwrap();
+        assert_eq!([total(x, brows), total(x, corners)], [0.15, 0.125]);
     }
 
     #[test]
