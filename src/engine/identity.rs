@@ -32,8 +32,10 @@ pub const MAX_FILE_BYTES: usize = 1 << 20;
 /// Problems with an identity table.
 #[derive(Debug, thiserror::Error)]
 pub enum IdentityError {
+    /// The parser's message (line, column and an excerpt) is part of this one, not a source
+    /// of it: a report of the error's chain would print it twice.
     #[error("the identity table is not valid TOML: {0}")]
-    Toml(#[from] toml::de::Error),
+    Toml(toml::de::Error),
     #[error("line {line}: identity \"{id}\", field `{field}`: {message}")]
     Invalid { id: String, field: &'static str, line: usize, message: String },
     #[error("unknown identity \"{0}\" (run `facslab identities` for the list)")]
@@ -295,7 +297,7 @@ impl IdentityTable {
         if text.len() > MAX_FILE_BYTES {
             return Err(IdentityError::TooLarge(text.len()));
         }
-        let file: IdentityFile = toml::from_str(text)?;
+        let file: IdentityFile = toml::from_str(text).map_err(IdentityError::Toml)?;
         let mut identities: Vec<Identity> = Vec::new();
         for spanned in file.identity {
             let span = spanned.span();
