@@ -488,7 +488,10 @@ mod tests {
         let err = IdentityTable::from_toml(&two, FaceModel::embedded()).unwrap_err().to_string();
         assert!(err.contains("line 22") && err.contains("`lips`") && err.contains("\"y\""), "{err}");
         let unknown = GOOD.replace("lips", "lipz");
-        let err = IdentityTable::from_toml(&unknown, FaceModel::embedded()).unwrap_err().to_string();
+        let err = IdentityTable::from_toml(&unknown, FaceModel::embedded()).unwrap_err();
+        // The parser's message is in the error's own, and not again as its source.
+        assert!(std::error::Error::source(&err).is_none(), "{err:?}");
+        let err = err.to_string();
         assert!(err.contains("lipz") && err.contains("line 10"), "{err}");
         let style = format!("{GOOD}hair_style = \"mohawk\"\n");
         let err = IdentityTable::from_toml(&style, FaceModel::embedded()).unwrap_err().to_string();
