@@ -505,8 +505,7 @@ impl<'a> FaceShader<'a> {
         }
         let brow = brow_mask(rest, pixel);
         if brow != 0.0 {
-            let grey = self.identity.hair.lerp(Vec3::splat(0.5), 0.6 * self.identity.hair_grey);
-            albedo = albedo.lerp(grey * 0.8, brow);
+            albedo = albedo.lerp(brow_colour(identity), brow);
         }
         let margin = painted.margin;
         let mut wet = 0.0;
@@ -524,7 +523,7 @@ impl<'a> FaceShader<'a> {
         }
         let oily = painted.oily;
         // Matte cheeks, an oilier T-zone, pores break up the highlight; wet lids shine.
-        let specular = (0.16 + 0.3 * oily) * (1.0 - 0.35 * pores) * (1.0 - hair) * (1.0 - 0.8 * brow) + 0.5 * lips * (1.0 - 0.6 * lip_crease) + 1.2 * wet;
+        let specular = (0.16 + 0.3 * oily) * (1.0 - 0.35 * pores) * (1.0 - hair) * (1.0 - brow) + 0.5 * lips * (1.0 - 0.6 * lip_crease) + 1.2 * wet;
         let shininess = 16.0 + 24.0 * lips + 48.0 * wet.min(1.0);
         let reach = self.key_reach(f);
         let open = self.from_hair(f, |hair| &hair.skin_open, 1.0);
@@ -1007,6 +1006,16 @@ fn brow_hairs(p: Vec2, brow: &BrowPoint, pixel: f32) -> f32 {
         hairs += tail * strokes(BROW_HAIR_ANGLES[3], 9.5);
     }
     hairs
+}
+
+/// How much of the scalp hair's greying the brows show: brows keep their pigment longer than the
+/// scalp hair (at 0.6 of it, greying people's brows read as a flat light-grey band).
+const BROW_GREYING: f32 = 0.3;
+
+/// The brows' colour: the hair's pigment (as [`hair_pigment`] greys it) with a share
+/// [`BROW_GREYING`] of its greying, a little darker (the hairs shade one another).
+fn brow_colour(identity: &Identity) -> Vec3 {
+    hair_pigment(identity, BROW_GREYING * identity.hair_grey) * 0.8
 }
 
 /// Which way brow hairs grow (radians up from outward): at the head, the body's lower and upper
@@ -1570,6 +1579,21 @@ mod tests {
         assert_eq!(brow_band(Vec3::new(0.3, 7.8, 1.4)), 0.0);
         assert_eq!(brow_band(Vec3::new(0.0, 7.5, 1.5)), 0.0);
         assert_eq!(brow_mask(Vec3::new(0.3, 7.8, 1.4), 0.003), 0.0);
+    }
+
+    /// Greying brows keep more of their pigment than the scalp hair: on everyone whose hair is
+    /// half grey or more, the brows are under 0.4 of the brightness of the hair's greyed pigment
+    /// (brows lerped to a light grey at 0.6 of the hair's greying read about 0.6 of it).
+    #[test]
+    fn greying_brows_keep_their_pigment_longer_than_the_hair() {
+        let bright = |c: Vec3| c.dot(Vec3::new(0.2126, 0.7152, 0.0722));
+        let mut greying = 0;
+        for identity in crate::engine::identity::IdentityTable::built_in().iter().filter(|i| i.hair_grey >= 0.5) {
+            let (brows, hair) = (bright(brow_colour(identity)), bright(hair_pigment(identity, identity.hair_grey)));
+            assert!(brows < 0.4 * hair, "{}: brows {brows:.3}, greyed hair {hair:.3}", identity.id);
+            greying += 1;
+        }
+        assert!(greying >= 4, "the shipped people include greying ones ({greying})");
     }
 
     /// The brow's hairs are strokes along the way they grow: on a patch of the head, of the
