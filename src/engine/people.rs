@@ -203,21 +203,14 @@ impl Draw {
 
 /// The lips' colour for `skin` (sRGB 0..255): a rose-brown a little darker than the skin, rosier
 /// on women, nearer the skin's own colour the darker it is (as on the hand-made evaluation
-/// people: wm1's skin times 0.83, 0.63, 0.73; bm2's 0.98, 0.89, 1.16). The skin times 0.82,
-/// 0.56, 0.58 gave every generated person an orange-red like lipstick.
+/// people: wm1's skin times 0.83, 0.63, 0.73; bm2's 0.98, 0.89, 1.16): the skin's darkness
+/// runs from 0, where its brightest channel is 90 % or more, to 1 at 40 % or less. The skin
+/// times 0.82, 0.56, 0.58 gave every generated person an orange-red like lipstick.
 fn lip_colour(skin: [f32; 3], female: bool) -> [f32; 3] {
     let light: [f32; 3] = if female { [0.81, 0.55, 0.64] } else { [0.83, 0.63, 0.72] };
     let dark = [0.95, 0.86, 1.1];
     let darkness = ((0.9 - skin.iter().fold(0.0f32, |m, &c| m.max(c)) / 255.0) / 0.5).clamp(0.0, 1.0);
     std::array::from_fn(|k| skin[k] * (light[k] + (dark[k] - light[k]) * darkness))
-}
-
-/// How saturated an sRGB colour is: (max − min) / max.
-#[cfg(test)]
-fn saturation(rgb: [f32; 3]) -> f32 {
-    let max = rgb.iter().fold(0.0f32, |m, &c| m.max(c));
-    let min = rgb.iter().fold(f32::INFINITY, |m, &c| m.min(c));
-    if max > 0.0 { (max - min) / max } else { 0.0 }
 }
 
 fn hex(rgb: [f32; 3]) -> String {
@@ -330,6 +323,13 @@ mod tests {
         unique.sort();
         unique.dedup();
         assert_eq!(unique.len(), texts.len(), "two requests gave the same person");
+    }
+
+    /// How saturated an sRGB colour is: (max − min) / max.
+    fn saturation(rgb: [f32; 3]) -> f32 {
+        let max = rgb.iter().fold(0.0f32, |m, &c| m.max(c));
+        let min = rgb.iter().fold(f32::INFINITY, |m, &c| m.min(c));
+        if max > 0.0 { (max - min) / max } else { 0.0 }
     }
 
     /// Generated lips are rose-brown, not lipstick: over every origin's skin range, no more
