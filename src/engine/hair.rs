@@ -632,7 +632,7 @@ fn hash01(a: u32, b: u32, c: u32) -> f32 {
     (h >> 8) as f32 / (1u32 << 24) as f32
 }
 
-/// Where one person's scalp hair begins: the hairline of [`scalp_mask`] raised by their
+/// Where one person's scalp hair begins: the hairline of [`scalp_line`] raised by their
 /// `hairline` (decimetres) and wandering up and down by a few millimetres over a centimetre or
 /// two, in a pattern of their own: drawn as one smooth curve, a hairline reads as a painted edge
 /// brushed straight across the forehead. The hair cards' roots and the painted scalp hair under
@@ -648,7 +648,7 @@ pub struct Hairline {
 const HAIRLINE_WANDER: [(f32, f32); 2] = [(0.06, 0.16), (0.03, 0.06)];
 
 /// How far (decimetres) from the unwandered line the mask can be neither 0 nor 1: the most the
-/// line wanders, the widest edge ([`scalp_mask`] with noise 1) and a margin for rounding.
+/// line wanders, the widest edge ([`hair_edge`] with noise 1) and a margin for rounding.
 const HAIRLINE_REACH: f32 = HAIRLINE_WANDER[0].0 + HAIRLINE_WANDER[1].0 + 0.045 + 0.01;
 
 impl Hairline {
@@ -668,11 +668,12 @@ impl Hairline {
     pub fn mask(&self, rest: Vec3, noise: f32) -> f32 {
         // Farther from the unwandered line than the line can wander and its edge reach, the
         // mask is 0 or 1 whatever the wander: skip working it out (most of the head).
-        let from_line = rest.y - (scalp_line(rest) + self.raise);
+        let line = scalp_line(rest);
+        let from_line = rest.y - (line + self.raise);
         if from_line.abs() > HAIRLINE_REACH {
             return if from_line > 0.0 { 1.0 } else { 0.0 };
         }
-        scalp_mask(rest, self.raise + self.wander(rest), noise)
+        hair_edge(line, self.raise + self.wander(rest), rest.y, noise)
     }
 
     /// How far (decimetres) the line is moved up at `rest`: a function of where along the
@@ -688,16 +689,16 @@ impl Hairline {
     }
 }
 
-/// Where on the scalp hair grows (1) or not (0), at a rest position of the base mesh: above a
-/// hairline that runs high over the forehead, down over the temples and low at the nape,
-/// raised by `raise` decimetres.
-fn scalp_mask(rest: Vec3, raise: f32, noise: f32) -> f32 {
-    let line = scalp_line(rest);
+/// Whether hair grows (1) or not (0) at height `y` over a point whose hairline lies at `line`
+/// ([`scalp_line`]) raised by `raise` decimetres: an edge 2.5 to 4.5 mm wide either side of it,
+/// frayed by `noise` (0..1).
+fn hair_edge(line: f32, raise: f32, y: f32, noise: f32) -> f32 {
     let edge = 0.025 + 0.02 * noise;
-    smooth(line + raise - edge, line + raise + edge, rest.y)
+    smooth(line + raise - edge, line + raise + edge, y)
 }
 
-/// The height (rest y) of [`scalp_mask`]'s hairline, unraised, above `rest`'s place on the head.
+/// The height (rest y) of the hairline, unraised, above `rest`'s place on the head: high over
+/// the forehead, down over the temples and low at the nape.
 fn scalp_line(rest: Vec3) -> f32 {
     let x = rest.x.abs();
     let front = 8.02 + 2.4 * (x - 0.35).max(0.0).powi(2);

@@ -309,6 +309,8 @@ pub struct FaceShader<'a> {
     model: &'a FaceModel,
     posed: &'a Posed,
     identity: &'a Identity,
+    /// The person's hairline, worked out once (the painted scalp's parting reads it).
+    hairline: Hairline,
     lighting: Lighting,
     backdrop_kind: Backdrop,
     /// The backdrop's colour on each image row, worked out once.
@@ -340,7 +342,8 @@ impl<'a> FaceShader<'a> {
         let lighting = look.light.lighting();
         let (body, body_key_light, hair, hair_key_light) = (None, Vec::new(), None, Vec::new());
         let backdrop_kind = look.backdrop;
-        FaceShader { maps, key_light, body, body_key_light, hair, hair_seen: &[], hair_key_light, shadow: None, patterns, relief_bounds, model, posed, identity, lighting, backdrop_kind, backdrop, eye, pixel_angle }
+        let hairline = Hairline::of(identity);
+        FaceShader { maps, key_light, body, body_key_light, hair, hair_seen: &[], hair_key_light, shadow: None, patterns, relief_bounds, model, posed, identity, hairline, lighting, backdrop_kind, backdrop, eye, pixel_angle }
     }
 
     /// Casts the key light's shadows from `shadow`, looked up once per vertex (offset along the
@@ -499,7 +502,7 @@ impl<'a> FaceShader<'a> {
         }
         let hair = painted.hair;
         // The painted scalp, worked out once: its albedo here, its lighting as hair below.
-        let scalp = (hair > 0.0).then(|| scalp_paint(identity, rest, pixel));
+        let scalp = (hair > 0.0).then(|| scalp_paint(identity, self.hairline, rest, pixel));
         if let Some(paint) = &scalp {
             albedo = albedo.lerp(paint.over(albedo), hair);
         }
@@ -1203,7 +1206,8 @@ struct ScalpPaint {
     parting: f32,
 }
 
-fn scalp_paint(identity: &Identity, rest: Vec3, pixel: f32) -> ScalpPaint {
+/// The painted scalp at `rest` of `identity`, whose hairline is `hairline`.
+fn scalp_paint(identity: &Identity, hairline: Hairline, rest: Vec3, pixel: f32) -> ScalpPaint {
     let parting = super::hair::parting_x(identity.parting);
     // How far the hair over this point is combed sideways (from the parting) rather than back.
     let sideways = if parting.is_some() { smoothstep(0.0, 0.7, rest.z) } else { 0.0 };
@@ -1219,7 +1223,7 @@ fn scalp_paint(identity: &Identity, rest: Vec3, pixel: f32) -> ScalpPaint {
     let half = super::hair::PARTING_HALF_WIDTH;
     let line = (1.0 - smoothstep(0.5 * half, half, (rest.x - x).abs())) * smoothstep(0.2, 0.6, rest.z);
     // The parting runs through the hair, not beyond the roots into the painted fringe.
-    let parting = if line == 0.0 { 0.0 } else { 0.75 * line * Hairline::of(identity).mask(rest, 0.5) };
+    let parting = if line == 0.0 { 0.0 } else { 0.75 * line * hairline.mask(rest, 0.5) };
     ScalpPaint { hair, streaks, parting }
 }
 
@@ -1562,14 +1566,14 @@ mod tests {
         let top = Vec3::new(0.4, 8.3, 0.6);
         let skin = Vec3::new(0.8, 0.6, 0.5);
         let luma = |c: Vec3| c.dot(Vec3::splat(1.0 / 3.0));
-        assert!(luma(scalp_paint(&grey, top, 0.0).over(skin)) > 0.5 * luma(hair_pigment(&grey, grey.hair_grey)));
+        assert!(luma(scalp_paint(&grey, Hairline::of(&grey), top, 0.0).over(skin)) > 0.5 * luma(hair_pigment(&grey, grey.hair_grey)));
         assert!(luma(hair_pigment(&grey, grey.hair_grey)) > 1.3 * luma(grey.hair));
         let mut straight = table.get("wf1").unwrap().clone();
         let parting = Vec3::new(0.0, 8.3, 0.8);
         let beside = parting + Vec3::X * 3.0 * crate::engine::hair::PARTING_HALF_WIDTH;
-        assert!(scalp_paint(&straight, parting, 0.0).over(skin).distance(skin * 0.85) < 0.5 * scalp_paint(&straight, beside, 0.0).over(skin).distance(skin * 0.85));
+        assert!(scalp_paint(&straight, Hairline::of(&straight), parting, 0.0).over(skin).distance(skin * 0.85) < 0.5 * scalp_paint(&straight, Hairline::of(&straight), beside, 0.0).over(skin).distance(skin * 0.85));
         straight.hair_texture = HairTexture::Curly;
-        assert!(scalp_paint(&straight, parting, 0.0).over(skin).distance(skin * 0.85) > 0.3);
+        assert!(scalp_paint(&straight, Hairline::of(&straight), parting, 0.0).over(skin).distance(skin * 0.85) > 0.3);
     }
 
     #[test]
