@@ -293,6 +293,44 @@ mod tests {
         }
     }
 
+    /// The white of the eye is off-white and shaded in its socket, not paper white, nor grey:
+    /// on the eight evaluation people at rest (485×480), the brightest tenth of the pixels
+    /// wholly on each eyeball (the lit white) reads from 170 to 240 of 255 in its brightest
+    /// channel (231–235 on the eye toward the key light and 198–203 on the other; 246–250 on
+    /// the eye toward the light when the eyeball took all of the sky and fill lights and a
+    /// paler white).
+    #[test]
+    fn the_white_of_the_eye_is_off_white() {
+        let mut failures = Vec::new();
+        for id in ["wm1", "wm2", "bm1", "bm2", "wf1", "wf2", "bf1", "bf2"] {
+            let identity = IdentityTable::built_in().get(id).unwrap();
+            let posed = pose_expression(&Catalog::built_in().parse("0").unwrap(), identity).unwrap();
+            let camera = portrait_camera(posed.anchor, 485, 480);
+            let image = render_posed(&posed, identity, FrameSettings { threads: Some(1), ..FrameSettings::default() }).unwrap();
+            let scene = Scene::new(&posed, identity, camera.eye, 0.0);
+            let visibility = raster::visibility(&scene.items(&posed), &camera, &still_options(Some(1)));
+            for part in [Part::EyeLeft, Part::EyeRight] {
+                let item = Part::ALL.iter().position(|&p| p == part).unwrap() as u32;
+                let mut brightness: Vec<u8> = (0..480u32)
+                    .flat_map(|y| (0..485u32).map(move |x| (x, y)))
+                    .filter(|&(x, y)| visibility.pixel(x, y).iter().all(|hit| hit.is_some_and(|h| h.item == item)))
+                    .map(|(x, y)| {
+                        let at = (y as usize * 485 + x as usize) * 3;
+                        image.data[at..at + 3].iter().copied().max().unwrap_or(0)
+                    })
+                    .collect();
+                brightness.sort_unstable_by(|a, b| b.cmp(a));
+                let tenth = &brightness[..(brightness.len() / 10).max(1)];
+                let white = tenth.iter().map(|&v| f32::from(v)).sum::<f32>() / tenth.len() as f32;
+                println!("{id} {part:?}: {} pixels, brightest tenth {white:.1}", brightness.len());
+                if !(170.0..=240.0).contains(&white) {
+                    failures.push(format!("{id} {part:?}: the white reads {white:.1}"));
+                }
+            }
+        }
+        assert!(failures.is_empty(), "{}", failures.join("\n"));
+    }
+
     /// The samples of a frontal 242×240 picture of `expression` on `identity` that show the
     /// lips' red: skin triangles whose corners are, on average, at least half lip paint.
     fn red_lip_samples(expression: &str, identity: &Identity) -> usize {

@@ -203,6 +203,12 @@ fn age_lines() -> &'static [(Relief, f32)] {
 /// retreats at full `lid_raise`: from the iris's top edge to above it.
 const LID_RAISE_SHADOW: f32 = 0.4;
 
+/// The share of the sky and fill lights that reaches the eyeball in its socket.
+const EYE_SOCKET_OPEN: f32 = 0.8;
+
+/// How much darker the eyeball is toward the eye's corners, where it turns away under the lids.
+const EYE_CORNER_SHADOW: f32 = 0.4;
+
 /// The eyeballs of the rest mesh (centre, radius; see `stimuli/face/README.md`), for the lid
 /// margins.
 const REST_EYE_CENTRE: Vec3 = Vec3::new(0.30777, 7.28414, 1.24535);
@@ -733,7 +739,8 @@ impl<'a> FaceShader<'a> {
         let around = seen.dot(right).atan2(seen.dot(eye.up));
         let iris_edge = 0.52;
         let pupil = 0.19;
-        let sclera = Vec3::new(0.78, 0.74, 0.70).lerp(Vec3::new(0.74, 0.52, 0.48), smoothstep(0.8, 1.45, angle));
+        // An off-white, a little warm, redder toward the corners (paper white read as stickers).
+        let sclera = Vec3::new(0.70, 0.65, 0.60).lerp(Vec3::new(0.68, 0.48, 0.44), smoothstep(0.8, 1.45, angle));
         let fibres = 0.7 + 0.6 * value_noise(Vec3::new(around * 14.0, angle * 30.0, side as f32 * 7.0));
         // Iris: a lighter collarette around the pupil, radial fibres, a dark limbal ring.
         let collarette = 1.0 + 0.35 * (1.0 - smoothstep(0.0, 0.08, (angle - 0.29).abs()));
@@ -745,8 +752,10 @@ impl<'a> FaceShader<'a> {
         // A raised upper lid (AU5, `lid_raise`) takes its shadow up with it, so the sclera
         // above the iris shows white.
         let up = d.dot(eye.up) - LID_RAISE_SHADOW * self.lid_raise(side);
-        let lid_shadow = (1.0 - 0.6 * smoothstep(0.0, 0.45, up)) * (1.0 - 0.25 * smoothstep(0.55, 1.0, d.dot(right).abs()));
-        let colour = self.lit(f, d, albedo * lid_shadow, 0.1, 0.0, 1.0);
+        let lid_shadow = (1.0 - 0.6 * smoothstep(0.0, 0.45, up)) * (1.0 - EYE_CORNER_SHADOW * smoothstep(0.55, 1.0, d.dot(right).abs()));
+        // The socket, lids and brow leave the eyeball a narrow view of the sky and fill lights.
+        let surface = Surface { wrap: 0.1, specular: 0.0, shininess: 1.0, open: EYE_SOCKET_OPEN };
+        let colour = self.lit_reached(f, d, albedo * lid_shadow, surface, self.key_reach(f));
         colour + self.cornea_highlight(d, f.view_dir) * self.interpolate(&self.key_light, f)
     }
 
