@@ -1272,7 +1272,7 @@ const PATTERNS: [(&str, Relief); 11] = [
     ("lower_lid_bulge", Relief { pattern: lower_lid_bulge, bounds: [0.14, 0.47, 7.08, 7.22] }),
     ("nose_wrinkles", Relief { pattern: nose_wrinkles, bounds: [0.0, 0.17, 7.14, 7.36] }),
     ("nasolabial", Relief { pattern: nasolabial, bounds: [0.09, 0.35, 6.5, 7.0] }),
-    ("dimple", Relief { pattern: dimple, bounds: [0.22, 0.34, 6.56, 6.68] }),
+    ("dimple", Relief { pattern: dimple, bounds: [0.22, 0.36, 6.52, 6.71] }),
     ("chin_boss", Relief { pattern: chin_boss, bounds: [0.0, 0.2, 6.2, 6.52] }),
     ("lip_press_bulge", Relief { pattern: lip_press_bulge, bounds: [0.0, 0.24, 6.41, 6.8] }),
 ];
@@ -1353,8 +1353,14 @@ fn nasolabial(p: Vec2) -> f32 {
     1.3 * groove(polyline_distance(p, &fold), 0.024)
 }
 
+/// AU14's dimpler: the tucked corner (the mouth's corner lies at x 0.25, y 6.615 at rest) sinks
+/// into a small pit, the skin drawn in beside it bunches, and beyond that bulge a crescent
+/// furrow curves round the corner from above it to below it, open toward the mouth.
 fn dimple(p: Vec2) -> f32 {
-    1.2 * groove((p - Vec2::new(0.28, 6.62)).length(), 0.016)
+    let crescent = [Vec2::new(0.283, 6.655), Vec2::new(0.292, 6.63), Vec2::new(0.293, 6.605), Vec2::new(0.285, 6.578)];
+    let pit = 0.6 * groove((p - Vec2::new(0.262, 6.616)).length(), 0.01);
+    let bunched = 0.35 * blob(p, Vec2::new(0.274, 6.617), Vec2::new(0.014, 0.03));
+    pit + bunched + groove(polyline_distance(p, &crescent), 0.01)
 }
 
 fn chin_boss(p: Vec2) -> f32 {
@@ -1764,5 +1770,21 @@ mod tests {
         assert!(nasolabial(Vec2::new(0.20, 6.82)) < -1.0);
         assert!(nasolabial(Vec2::new(0.0, 7.5)).abs() < 1e-3);
         assert!(forehead_inner(Vec2::new(0.0, 7.72)) < -0.9);
+    }
+
+    /// AU14's dimple is a crescent round the mouth's corner (x 0.25, y 6.615 at rest), not a dot
+    /// beside it: its furrow is at least half deep 4 mm above, 4 mm lateral and 3.5 mm below the
+    /// corner's level on the curve, the skin between the corner and the furrow bunches up, and
+    /// it fades out within 2 cm.
+    #[test]
+    fn the_dimple_is_a_crescent_round_the_mouths_corner() {
+        for (x, y) in [(0.283, 6.655), (0.293, 6.615), (0.285, 6.58)] {
+            let depth = dimple(Vec2::new(x, y));
+            assert!(depth < -0.5, "the furrow at ({x}, {y}) is {depth}");
+        }
+        assert!(dimple(Vec2::new(0.274, 6.617)) > 0.1, "the bunched skin reads {}", dimple(Vec2::new(0.274, 6.617)));
+        for (x, y) in [(0.45, 6.615), (0.28, 6.43), (0.28, 6.8)] {
+            assert!(dimple(Vec2::new(x, y)).abs() < 1e-3, "the dimple reaches ({x}, {y})");
+        }
     }
 }
