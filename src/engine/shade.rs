@@ -1395,6 +1395,125 @@ fn hash_whole(x: i32, y: i32, z: i32) -> f32 {
 /// Scales [`hash_whole`]'s values (and blends of them) to [0, 1]: 2²⁴ − 1 times it is exactly 1.
 const HASH_SCALE: f32 = 1.0 / 16_777_215.0;
 
+/// [`hash_whole`] at the eight corners of the lattice cell whose lowest corner is (x, y, z),
+/// corner (dx, dy, dz) at index `dx + 2 dy + 4 dz`, one corner at a time: the reference the
+/// side-by-side version ([`corner_hashes`]) matches.
+#[cfg(any(test, not(target_arch = "x86_64")))]
+fn cell_corners(x: i32, y: i32, z: i32) -> [f32; 8] {
+    std::array::from_fn(|k| hash_whole(x.wrapping_add((k & 1) as i32), y.wrapping_add((k >> 1 & 1) as i32), z.wrapping_add((k >> 2) as i32)))
+}
+
+/// The noise's cells on SSE2 (part of every x86-64 processor): four corners' hashes side by
+/// side, with the same integer operations as [`hash_whole`] (a 32-bit multiply taken as the low
+/// half of two 64-bit ones, SSE2 having no 32-bit multiply) and the same exact conversion, and
+/// their blends with the same floating-point operations lane by lane as the scalar ones.
+#[cfg(target_arch = "x86_64")]
+mod corner_hashes {
+    use std::arch::x86_64::*;
+
+    /// The eight corners as [`super::cell_corners`] gives them.
+    #[cfg(test)]
+    pub fn of_cell(x: i32, y: i32, z: i32) -> [f32; 8] {
+        let (low, high) = halves(x, y, z);
+        let mut corners = [0.0f32; 8];
+        // SAFETY: SSE2 only; the two stores write four floats each within the eight of `corners`.
+        unsafe {
+            _mm_storeu_ps(corners.as_mut_ptr(), low);
+            _mm_storeu_ps(corners.as_mut_ptr().add(4), high);
+        }
+        corners
+    }
+
+    /// [`super::blend_corners`] of the cell's corners at `s` (the same operations lane by
+    /// lane, so the same value bit for bit), without storing the corners.
+    pub fn blend_of_cell(x: i32, y: i32, z: i32, s: glam::Vec3) -> f32 {
+        let (low, high) = halves(x, y, z);
+        // SAFETY: SSE2 only, no memory access.
+        unsafe {
+            // From dz = 0 and dz = 1: (dx = 0, dy = 0), (0, 1) of each, and their dx = 1 partners.
+            let from = _mm_shuffle_ps(low, high, 0b10_00_10_00);
+            let to = _mm_shuffle_ps(low, high, 0b11_01_11_01);
+            let along_x = _mm_add_ps(from, _mm_mul_ps(_mm_sub_ps(to, from), _mm_set1_ps(s.x)));
+            // Lanes x00, x10, x01, x11 → (x00, x01) and (x10, x11).
+            let from = _mm_shuffle_ps(along_x, along_x, 0b00_00_10_00);
+            let to = _mm_shuffle_ps(along_x, along_x, 0b00_00_11_01);
+            let along_y = _mm_add_ps(from, _mm_mul_ps(_mm_sub_ps(to, from), _mm_set1_ps(s.y)));
+            let (y0, y1) = (_mm_cvtss_f32(along_y), _mm_cvtss_f32(_mm_shuffle_ps(along_y, along_y, 0b01)));
+            y0 + (y1 - y0) * s.z
+        }
+    }
+
+    /// [`super::blend_and_rises`] of the cell at `s`, side by side (the same operations lane
+    /// by lane, so the same values bit for bit).
+    pub fn blend_and_rises_of_cell(x: i32, y: i32, z: i32, s: glam::Vec3) -> (f32, f32, f32) {
+        let (low, high) = halves(x, y, z);
+        // SAFETY: SSE2 only, no memory access.
+        unsafe {
+            let from = _mm_shuffle_ps(low, high, 0b10_00_10_00);
+            let to = _mm_shuffle_ps(low, high, 0b11_01_11_01);
+            // Per (dy, dz) = (0, 0), (1, 0), (0, 1), (1, 1): the rise along x and the blend across it.
+            let rise_x = _mm_sub_ps(to, from);
+            let across = _mm_add_ps(from, _mm_mul_ps(rise_x, _mm_set1_ps(s.x)));
+            // Blended along y, pairs at dz = 0 and 1: lanes (across at dy 0, 0; rise at dy 0, 0)
+            // toward (across at dy 1; rise at dy 1).
+            let from = _mm_shuffle_ps(across, rise_x, 0b10_00_10_00);
+            let to = _mm_shuffle_ps(across, rise_x, 0b11_01_11_01);
+            let rise_y = _mm_sub_ps(to, from);
+            let along_y = _mm_add_ps(from, _mm_mul_ps(rise_y, _mm_set1_ps(s.y)));
+            let lane = |v: __m128, k: i32| -> f32 {
+                let mut out = [0.0f32; 4];
+                _mm_storeu_ps(out.as_mut_ptr(), v);
+                out[k as usize]
+            };
+            let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
+            let value = lerp(lane(along_y, 0), lane(along_y, 1), s.z);
+            let slope_x = lerp(lane(along_y, 2), lane(along_y, 3), s.z);
+            let slope_y = lerp(lane(rise_y, 0), lane(rise_y, 1), s.z);
+            (value, slope_x, slope_y)
+        }
+    }
+
+    /// The hashes of the cell's corners with dz = 0 and with dz = 1, each in lanes (dx, dy) =
+    /// (0, 0), (1, 0), (0, 1), (1, 1).
+    #[inline(always)]
+    fn halves(x: i32, y: i32, z: i32) -> (__m128, __m128) {
+        let along = |v: i32, factor: u32| [(v as u32).wrapping_mul(factor), (v.wrapping_add(1) as u32).wrapping_mul(factor)];
+        let ([x0, x1], [y0, y1], [z0, z1]) = (along(x, 0x8da6_b343), along(y, 0xd816_3841), along(z, 0xcb1a_b31f));
+        // SAFETY: SSE2 is part of every x86-64 processor, so its intrinsics are always
+        // available; none of these touch memory.
+        unsafe {
+            // `_mm_set_epi32` takes the last lane first.
+            let xy = _mm_xor_si128(_mm_set_epi32(x1 as i32, x0 as i32, x1 as i32, x0 as i32), _mm_set_epi32(y1 as i32, y1 as i32, y0 as i32, y0 as i32));
+            (finish(_mm_xor_si128(xy, _mm_set1_epi32(z0 as i32))), finish(_mm_xor_si128(xy, _mm_set1_epi32(z1 as i32))))
+        }
+    }
+
+    /// The rest of [`super::hash_whole`] on four lanes.
+    #[inline(always)]
+    unsafe fn finish(h: __m128i) -> __m128 {
+        // SAFETY (callers): SSE2 only, no memory access.
+        unsafe {
+            let h = _mm_xor_si128(h, _mm_srli_epi32(h, 13));
+            let h = multiply_low(h, 0x5bd1_e995);
+            let h = _mm_xor_si128(h, _mm_srli_epi32(h, 15));
+            _mm_cvtepi32_ps(_mm_and_si128(h, _mm_set1_epi32(0x00ff_ffff)))
+        }
+    }
+
+    /// The low 32 bits of each lane times `factor`, as `u32::wrapping_mul`.
+    #[inline(always)]
+    unsafe fn multiply_low(h: __m128i, factor: u32) -> __m128i {
+        // SAFETY (callers): SSE2 only, no memory access.
+        unsafe {
+            let f = _mm_set1_epi32(factor as i32);
+            let even = _mm_mul_epu32(h, f);
+            let odd = _mm_mul_epu32(_mm_srli_epi64(h, 32), f);
+            // The low halves of the 64-bit products, back in lane order 0, 1, 2, 3.
+            _mm_unpacklo_epi32(_mm_shuffle_epi32(even, 0b00_00_10_00), _mm_shuffle_epi32(odd, 0b00_00_10_00))
+        }
+    }
+}
+
 /// `x.floor() as i32` without a call into libm (the baseline x86-64 target has no rounding
 /// instruction); the same value for every `x` whose floor fits in an `i32`.
 #[inline]
@@ -1441,6 +1560,7 @@ fn smoothed(t: Vec3) -> Vec3 {
 }
 
 /// Trilinear blend of a cell's corner values, `corner(dx, dy, dz)` with each offset 0 or 1.
+#[cfg(any(test, not(target_arch = "x86_64")))]
 #[inline]
 fn blend_corners(s: Vec3, corner: impl Fn(usize, usize, usize) -> f32) -> f32 {
     let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
@@ -1453,8 +1573,23 @@ fn blend_corners(s: Vec3, corner: impl Fn(usize, usize, usize) -> f32) -> f32 {
 
 /// Trilinear value noise in [0, 1].
 fn value_noise(p: Vec3) -> f32 {
+    #[cfg(target_arch = "x86_64")]
+    {
+        let ([x, y, z], s) = lattice(p);
+        corner_hashes::blend_of_cell(x, y, z, s) * HASH_SCALE
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        value_noise_scalar(p)
+    }
+}
+
+/// [`value_noise`] one corner at a time: the reference the side-by-side version matches.
+#[cfg(any(test, not(target_arch = "x86_64")))]
+fn value_noise_scalar(p: Vec3) -> f32 {
     let ([x, y, z], s) = lattice(p);
-    blend_corners(s, |dx, dy, dz| hash_whole(x + dx as i32, y + dy as i32, z + dz as i32)) * HASH_SCALE
+    let corners = cell_corners(x, y, z);
+    blend_corners(s, |dx, dy, dz| corners[dx + 2 * dy + 4 * dz]) * HASH_SCALE
 }
 
 /// `value_noise` at `p` (the same value bit for bit) and its slopes along x and y, per lattice
@@ -1464,17 +1599,28 @@ fn value_noise_and_slope(p: Vec3) -> (f32, Vec2) {
     let ([x, y, z], t) = lattice_offset(p);
     let s = smoothed(t);
     let ds = 6.0 * t * (Vec3::ONE - t);
-    let c = |dx: i32, dy: i32, dz: i32| hash_whole(x + dx, y + dy, z + dz);
-    let corners = [[[c(0, 0, 0), c(0, 0, 1)], [c(0, 1, 0), c(0, 1, 1)]], [[c(1, 0, 0), c(1, 0, 1)], [c(1, 1, 0), c(1, 1, 1)]]];
-    let value = blend_corners(s, |dx, dy, dz| corners[dx][dy][dz]);
+    #[cfg(target_arch = "x86_64")]
+    let (value, along_x, along_y) = corner_hashes::blend_and_rises_of_cell(x, y, z, s);
+    #[cfg(not(target_arch = "x86_64"))]
+    let (value, along_x, along_y) = blend_and_rises(&cell_corners(x, y, z), s);
+    (value * HASH_SCALE, Vec2::new(ds.x * along_x, ds.y * along_y) * HASH_SCALE)
+}
+
+/// The blend of a cell's `corners` (see [`cell_corners`]) at `s`, and the rises of the blend
+/// along x and along y within the cell (before the smoothstep's slope), one corner at a time:
+/// the reference the side-by-side version matches.
+#[cfg(any(test, not(target_arch = "x86_64")))]
+fn blend_and_rises(cell: &[f32; 8], s: Vec3) -> (f32, f32, f32) {
+    let c = |dx: usize, dy: usize, dz: usize| cell[dx + 2 * dy + 4 * dz];
+    let value = blend_corners(s, c);
     let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
     // Along x: the four x-edges' rises, blended across y and z.
-    let rise = |dy: usize, dz: usize| corners[1][dy][dz] - corners[0][dy][dz];
+    let rise = |dy: usize, dz: usize| c(1, dy, dz) - c(0, dy, dz);
     let along_x = lerp(lerp(rise(0, 0), rise(1, 0), s.y), lerp(rise(0, 1), rise(1, 1), s.y), s.z);
     // Along y: the rise between the x-blends at y and y + 1, blended across z.
-    let across = |dy: usize, dz: usize| lerp(corners[0][dy][dz], corners[1][dy][dz], s.x);
+    let across = |dy: usize, dz: usize| lerp(c(0, dy, dz), c(1, dy, dz), s.x);
     let along_y = lerp(across(1, 0) - across(0, 0), across(1, 1) - across(0, 1), s.z);
-    (value * HASH_SCALE, Vec2::new(ds.x * along_x, ds.y * along_y) * HASH_SCALE)
+    (value, along_x, along_y)
 }
 
 /// What the bumps of pores and lip furrows take of the noise's slope: 0.334 of it, the
@@ -1762,6 +1908,37 @@ mod tests {
             let mut normal = Vec3::Z;
             assert_eq!(lip_lines(Vec3::new(origin.x, origin.y, 1.5), 0.0, 0.0, &mut normal), 0.0);
             assert_eq!(normal, Vec3::Z);
+        }
+    }
+
+    /// The eight corners of a cell hash side by side as [`hash_whole`] hashes each, bit for
+    /// bit, in cells anywhere (negative, large, at the ends of `i32`, where `x + 1` wraps), and
+    /// the noise and its slopes are those of the blends one corner at a time.
+    #[test]
+    fn cell_corners_are_the_corners_hashes() {
+        let mut cells: Vec<[i32; 3]> = vec![[0, 0, 0], [-1, -1, -1], [i32::MAX, i32::MIN, -7], [i32::MIN, i32::MAX, i32::MAX]];
+        cells.extend((0..2000).map(|i: i32| [i.wrapping_mul(7919) - 5000, i.wrapping_mul(-104_729), i.wrapping_mul(1_299_709)]));
+        for [x, y, z] in cells {
+            let corners = cell_corners(x, y, z);
+            for (k, corner) in corners.iter().enumerate() {
+                let (dx, dy, dz) = ((k & 1) as i32, (k >> 1 & 1) as i32, (k >> 2) as i32);
+                let expected = hash_whole(x.wrapping_add(dx), y.wrapping_add(dy), z.wrapping_add(dz));
+                assert_eq!(corner.to_bits(), expected.to_bits(), "cell ({x}, {y}, {z}), corner {k}");
+            }
+            #[cfg(target_arch = "x86_64")]
+            assert_eq!(corner_hashes::of_cell(x, y, z).map(f32::to_bits), corners.map(f32::to_bits), "cell ({x}, {y}, {z})");
+        }
+        // The noise and its slopes are those of the blends one corner at a time, bit for bit.
+        for i in 0..5000 {
+            let p = Vec3::new(i as f32 * 0.377 - 900.0, i as f32 * -0.113 + 3.7, (i % 97) as f32 * 0.61 - 20.0);
+            assert_eq!(value_noise(p).to_bits(), value_noise_scalar(p).to_bits(), "{p}");
+            let ([x, y, z], t) = lattice_offset(p);
+            let (value, along_x, along_y) = blend_and_rises(&cell_corners(x, y, z), smoothed(t));
+            let ds = 6.0 * t * (Vec3::ONE - t);
+            let (n, slope) = value_noise_and_slope(p);
+            assert_eq!(n.to_bits(), (value * HASH_SCALE).to_bits(), "{p}");
+            assert_eq!(slope.x.to_bits(), (ds.x * along_x * HASH_SCALE).to_bits(), "{p}");
+            assert_eq!(slope.y.to_bits(), (ds.y * along_y * HASH_SCALE).to_bits(), "{p}");
         }
     }
 
