@@ -1384,13 +1384,19 @@ fn hash(x: i32, y: i32, z: i32) -> f32 {
 /// noise blends these and scales the blend once, not each corner.
 #[inline]
 fn hash_whole(x: i32, y: i32, z: i32) -> f32 {
-    let mut h = (x as u32).wrapping_mul(0x8da6_b343) ^ (y as u32).wrapping_mul(0xd816_3841) ^ (z as u32).wrapping_mul(0xcb1a_b31f);
+    let [fx, fy, fz] = HASH_AXES;
+    let mut h = (x as u32).wrapping_mul(fx) ^ (y as u32).wrapping_mul(fy) ^ (z as u32).wrapping_mul(fz);
     h ^= h >> 13;
-    h = h.wrapping_mul(0x5bd1_e995);
+    h = h.wrapping_mul(HASH_MIX);
     h ^= h >> 15;
     // A 24-bit value converts exactly through `i32` (one instruction; from `u32` it is several).
     (h & 0x00ff_ffff) as i32 as f32
 }
+
+/// [`hash_whole`]'s factors: one per lattice axis, and one that mixes the bits of their
+/// products' exclusive or.
+const HASH_AXES: [u32; 3] = [0x8da6_b343, 0xd816_3841, 0xcb1a_b31f];
+const HASH_MIX: u32 = 0x5bd1_e995;
 
 /// Scales [`hash_whole`]'s values (and blends of them) to [0, 1]: 2²⁴ − 1 times it is exactly 1.
 const HASH_SCALE: f32 = 1.0 / 16_777_215.0;
@@ -1454,8 +1460,8 @@ mod corner_hashes {
             // Per (dy, dz) = (0, 0), (1, 0), (0, 1), (1, 1): the rise along x and the blend across it.
             let rise_x = _mm_sub_ps(to, from);
             let across = _mm_add_ps(from, _mm_mul_ps(rise_x, _mm_set1_ps(s.x)));
-            // Blended along y, pairs at dz = 0 and 1: lanes (across at dy 0, 0; rise at dy 0, 0)
-            // toward (across at dy 1; rise at dy 1).
+            // Blended along y: lanes (blend across x, rise along x) at dy = 0, each at dz = 0 and
+            // 1, toward the same at dy = 1.
             let from = _mm_shuffle_ps(across, rise_x, 0b10_00_10_00);
             let to = _mm_shuffle_ps(across, rise_x, 0b11_01_11_01);
             let rise_y = _mm_sub_ps(to, from);
@@ -1478,7 +1484,8 @@ mod corner_hashes {
     #[inline(always)]
     fn halves(x: i32, y: i32, z: i32) -> (__m128, __m128) {
         let along = |v: i32, factor: u32| [(v as u32).wrapping_mul(factor), (v.wrapping_add(1) as u32).wrapping_mul(factor)];
-        let ([x0, x1], [y0, y1], [z0, z1]) = (along(x, 0x8da6_b343), along(y, 0xd816_3841), along(z, 0xcb1a_b31f));
+        let [fx, fy, fz] = super::HASH_AXES;
+        let ([x0, x1], [y0, y1], [z0, z1]) = (along(x, fx), along(y, fy), along(z, fz));
         // SAFETY: SSE2 is part of every x86-64 processor, so its intrinsics are always
         // available; none of these touch memory.
         unsafe {
@@ -1494,7 +1501,7 @@ mod corner_hashes {
         // SAFETY (callers): SSE2 only, no memory access.
         unsafe {
             let h = _mm_xor_si128(h, _mm_srli_epi32(h, 13));
-            let h = multiply_low(h, 0x5bd1_e995);
+            let h = multiply_low(h, super::HASH_MIX);
             let h = _mm_xor_si128(h, _mm_srli_epi32(h, 15));
             _mm_cvtepi32_ps(_mm_and_si128(h, _mm_set1_epi32(0x00ff_ffff)))
         }
