@@ -1840,9 +1840,9 @@ mod tests {
             let whole = hair.fibre_grey_over(s, 0.5, 1.0);
             assert!((whole - mean).abs() < 1e-5, "strand {s}: whole card {whole}, mean of its fibres {mean}");
             assert_eq!(hair.fibre_grey_over(s, 0.5, 3.0), whole, "a span past the card's edges counts the card only");
-            for k in 0..fibres {
+            for (k, &fibre) in own.iter().enumerate() {
                 let within = hair.fibre_grey_over(s, centre(k), 0.5 / FIBRES_PER_CARD);
-                assert!((within - own[k]).abs() < 1e-5, "strand {s} fibre {k}: {within} against {}", own[k]);
+                assert!((within - fibre).abs() < 1e-5, "strand {s} fibre {k}: {within} against {fibre}");
             }
             let border = hair.fibre_grey_over(s, 4.0 / FIBRES_PER_CARD, 1.0 / FIBRES_PER_CARD);
             assert!((border - 0.5 * (own[3] + own[4])).abs() < 1e-5, "strand {s}: across fibres 3 and 4 {border}");

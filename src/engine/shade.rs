@@ -535,7 +535,7 @@ impl<'a> FaceShader<'a> {
         let specular = (0.16 + 0.3 * oily) * (1.0 - 0.35 * pores) * (1.0 - hair) * (1.0 - brow) + 0.5 * lips * (1.0 - 0.6 * lip_crease) + 1.2 * wet;
         let shininess = 16.0 + 24.0 * lips + 48.0 * wet.min(1.0);
         let reach = self.key_reach(f);
-        let open = self.from_hair(f, |hair| &hair.skin_open, 1.0);
+        let open = self.hair_skin_value(f, |hair| &hair.skin_open, 1.0);
         let surface = Surface { wrap: 0.35 * (1.0 - hair), specular, shininess, open };
         let mut colour = self.lit_reached(f, normal, albedo, surface, reach);
         colour += self.subsurface_bleed(normal, albedo, reach) * (1.0 - hair);
@@ -557,12 +557,12 @@ impl<'a> FaceShader<'a> {
     /// How much of the hair cards lying on the skin covers skin fragment `f`
     /// ([`super::hair::HairModel::skin_cover`]); 0 without hair.
     fn under_hair(&self, f: &Fragment) -> f32 {
-        self.from_hair(f, |hair| &hair.skin_cover, 0.0)
+        self.hair_skin_value(f, |hair| &hair.skin_cover, 0.0)
     }
 
     /// One of the hair model's per-skin-vertex `values` at skin fragment `f`, or `without`
     /// where there is no hair.
-    fn from_hair(&self, f: &Fragment, values: impl Fn(&HairModel) -> &[f32], without: f32) -> f32 {
+    fn hair_skin_value(&self, f: &Fragment, values: impl Fn(&HairModel) -> &[f32], without: f32) -> f32 {
         match self.hair {
             Some(hair) => {
                 let values = values(&hair.model);
@@ -633,12 +633,12 @@ impl<'a> FaceShader<'a> {
         let pigment = hair_pigment(self.identity, grey);
         // Fine, low-contrast variation across the card (strong contrast between neighbouring
         // fibres and dark roots read as hard stripes, a card as a plank).
-        let fibre_noise = value_noise(Vec3::new(f.uv.x * FIBRE_NOISE_ACROSS, f.uv.y * 4.0, strand as f32 * 1.618));
+        let fibre_noise = value_noise(Vec3::new(f.uv.x * FIBRE_NOISE_ACROSS, f.uv.y * 4.0, strand as f32 * FIBRE_NOISE_PER_STRAND));
         let fibres = 0.85 + 0.15 * seen_over(fibre_noise, FIBRE_NOISE_ACROSS * span);
         let rooted = 0.8 + 0.2 * smoothstep(0.0, 0.3, f.uv.y);
         // The highlights break into streaks along the strand (fibres catching the light
         // together), so that a card's sheen does not end at its edges as a lit plank.
-        let streak_noise = value_noise(Vec3::new(f.uv.x * HIGHLIGHT_STREAKS_ACROSS, f.uv.y * 3.0, strand as f32 * 2.718));
+        let streak_noise = value_noise(Vec3::new(f.uv.x * HIGHLIGHT_STREAKS_ACROSS, f.uv.y * 3.0, strand as f32 * STREAK_NOISE_PER_STRAND));
         let streaks = 0.35 + 1.3 * seen_over(streak_noise, HIGHLIGHT_STREAKS_ACROSS * span);
         let look = HairLook { albedo: pigment * tone * fibres * rooted, pigment, fibres, streaks, rooted };
         self.lit_hair(&look, f.normal, f.view_dir, self.interpolate(&self.hair_key_light, f))
@@ -1186,6 +1186,13 @@ struct HairLook {
 /// Cells of highlight streaks across one hair card (coarser than the fibre noise: bundles of
 /// fibres catch the light together).
 const HIGHLIGHT_STREAKS_ACROSS: f32 = 0.7 * FIBRE_NOISE_ACROSS;
+
+/// How far apart (in noise cells) neighbouring strands' fibre and streak patterns lie: steps that
+/// never bring a strand back onto the lattice another one took. Seeds, not the golden ratio and
+/// e, which they happen to round to.
+const FIBRE_NOISE_PER_STRAND: f32 = 1.618;
+#[allow(clippy::approx_constant)]
+const STREAK_NOISE_PER_STRAND: f32 = 2.718;
 
 /// The exponents of the hair's two highlights (Kajiya–Kay): broad enough that neighbouring
 /// cards at slightly different angles share a highlight (at 48 and 12 each card lit up or
