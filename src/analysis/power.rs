@@ -185,10 +185,10 @@ fn style_observations(s: &super::styles::StyleScale) -> Vec<Observation> {
     }
     if let Ok(table) = s.type_ii.as_result() {
         for (statistic, term) in [("style effect", "style"), ("style x label interaction", "style:label")] {
-            if let Some(row) = table.row(term) {
-                if let (Some(p), Some(eta)) = (row.p, row.partial_eta2) {
-                    out.push(Observation { statistic, item: scale.to_string(), estimate: eta, ci: None, p: Some(p) });
-                }
+            if let Some(row) = table.row(term)
+                && let (Some(p), Some(eta)) = (row.p, row.partial_eta2)
+            {
+                out.push(Observation { statistic, item: scale.to_string(), estimate: eta, ci: None, p: Some(p) });
             }
         }
     }

@@ -140,6 +140,10 @@ struct SimStimulus {
     emotion: Option<String>,
 }
 
+/// One media × intensity condition: whether it shows videos, its intensity, and its stimuli,
+/// each with its believability offset.
+type Condition = (bool, f64, Vec<(SimStimulus, f64)>);
+
 fn manifest_row(out: &mut String, s: &SimStimulus, video: bool, identity: &str, intensity: f64, seed: u64) {
     let (media, ext, timing, frames) = if video { ("video", "mp4", "1,1,1", 90) } else { ("image", "png", ",,", 1) };
     let fps = if video { "30" } else { "" };
@@ -274,7 +278,7 @@ impl Simulation<'_> {
 
     /// Exp. 3–4: the stimuli of each media × intensity condition (Exp. 4: videos at 100 %
     /// only), each with its believability offset.
-    fn conditions(&mut self) -> Vec<(bool, f64, Vec<(SimStimulus, f64)>)> {
+    fn conditions(&mut self) -> Vec<Condition> {
         let emotions = EmotionTable::built_in();
         let cells: &[(bool, f64)] = match self.o.design {
             Design::Exp4 => &[(true, 1.0)],

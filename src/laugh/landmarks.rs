@@ -122,10 +122,10 @@ fn landmark_column(name: &str) -> Option<(usize, usize)> {
         "y" => Some(1),
         _ => None,
     };
-    if let Some((head, tail)) = name.split_at_checked(1) {
-        if let (Some(a), Ok(n)) = (axis(head), tail.trim_start_matches('_').parse::<usize>()) {
-            return Some((n, a));
-        }
+    if let Some((head, tail)) = name.split_at_checked(1)
+        && let (Some(a), Ok(n)) = (axis(head), tail.trim_start_matches('_').parse::<usize>())
+    {
+        return Some((n, a));
     }
     let (head, tail) = name.rsplit_once('_')?;
     let number = head.trim_start_matches("part_").trim_start_matches('p');
@@ -222,7 +222,7 @@ pub fn write_ibug68(frames: &[FramePoints]) -> String {
     out.push('\n');
     for (f, points) in frames.iter().enumerate() {
         out.push_str(&f.to_string());
-        for axis in 0..2 {
+        for axis in [0, 1] {
             for n in 0..68 {
                 let v = NEEDED.iter().position(|&p| p == n).map_or(0.0, |k| points[k][axis]);
                 out.push_str(&format!(",{v:.3}"));

@@ -184,7 +184,8 @@ fn mid(points: &FramePoints, pair: [usize; 2]) -> [f64; 2] {
 /// FP1-FP15 of one frame, in inter-ocular distances (None when the eye corners coincide).
 pub fn facial_parameters(points: &FramePoints) -> Option<[f64; 15]> {
     let iod = dist(point_of(points, 36), point_of(points, 45));
-    if !(iod > 0.0) {
+    // Also refuses NaN.
+    if iod.is_nan() || iod <= 0.0 {
         return None;
     }
     Some(FACIAL_PARAMETERS.map(|p| {
@@ -215,7 +216,7 @@ pub fn neutral_of(params: &[[f64; 15]], frames: usize) -> [f64; 15] {
 
 /// C1-C17 of every frame by Eq. 1 (see the module doc); `file` names the track in errors.
 pub fn controllers(file: &str, params: &[[f64; 15]], neutral: &[f64; 15], epsilon: Epsilon) -> Result<Vec<[f64; 17]>, ParamsError> {
-    if let Some(k) = neutral.iter().position(|&v| !(v.abs() > 0.0)) {
+    if let Some(k) = neutral.iter().position(|&v| v == 0.0 || v.is_nan()) {
         return Err(ParamsError::ZeroNeutral { file: file.into(), fp: FACIAL_PARAMETERS[k].id });
     }
     let eps = epsilon.value();

@@ -201,7 +201,7 @@ mod tests {
     use crate::facs::{AuCode, Catalog, Laterality};
     use crate::laugh::types::LaughTable;
 
-    fn track<'a>(curves: &'a Curves, au: u16) -> &'a [f64] {
+    fn track(curves: &Curves, au: u16) -> &[f64] {
         &curves.tracks.iter().find(|t| t.au == AuCode(au) && t.side == Laterality::Both).unwrap().values
     }
 

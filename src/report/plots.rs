@@ -124,10 +124,13 @@ fn f1_bars(name: &str, aus: &[u16], f1: &[f64]) -> Result<Vec<u8>, ReportError> 
     })
 }
 
+/// A series' name and its mean ± SD point per label (`None` where the label has none).
+type RatingSeries = (String, Vec<Option<(f64, f64)>>);
+
 /// Mean ± SD points per label (x) and series (colour): believability per emotion and condition,
 /// or seed 004's ratings per type and style (Fig. 8, Fig. 10).
 /// `wide`: room for names of up to 17 characters (the laugh types) instead of 8.
-fn rating_points(name: &str, title: &str, labels: &[String], series: &[(String, Vec<Option<(f64, f64)>>)], wide: bool) -> Result<Vec<u8>, ReportError> {
+fn rating_points(name: &str, title: &str, labels: &[String], series: &[RatingSeries], wide: bool) -> Result<Vec<u8>, ReportError> {
     let palette = [RGBColor(49, 130, 189), RGBColor(158, 202, 225), RGBColor(230, 85, 13), RGBColor(253, 174, 107), RGBColor(49, 163, 84)];
     let (per_label, chars) = if wide { (105, 17) } else { (70, 8) };
     let w = (200 + per_label * labels.len()).max(600) as u32;
@@ -259,7 +262,7 @@ pub(super) fn all(report: &Report) -> Result<Vec<(String, Vec<u8>, String)>, Rep
             }
         }
         let labels: Vec<String> = r.labels.iter().filter(|l| *l != "none").cloned().collect();
-        let series: Vec<(String, Vec<Option<(f64, f64)>>)> = r
+        let series: Vec<RatingSeries> = r
             .conditions
             .iter()
             .filter_map(|c| {
@@ -281,7 +284,7 @@ pub(super) fn all(report: &Report) -> Result<Vec<(String, Vec<u8>, String)>, Rep
         }
     }
     for s in &report.styles {
-        let series: Vec<(String, Vec<Option<(f64, f64)>>)> = s
+        let series: Vec<RatingSeries> = s
             .styles
             .iter()
             .map(|style| {

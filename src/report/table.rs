@@ -263,6 +263,10 @@ pub struct Spread {
     pub missing: String,
 }
 
+/// A spread's column values, the field they are read from, and the field and value a row must
+/// have to count (`only`).
+type SpreadColumns = (Vec<String>, usize, Option<(usize, String)>);
+
 /// One page row of each group: the lead cells (from the group's first row), then one pattern per
 /// spread, applied to the row of each column.
 #[derive(Debug, Clone, PartialEq)]
@@ -394,7 +398,7 @@ impl Table {
     }
 
     /// The column values of a spread, and the field they are read from.
-    fn spread_values(&self, spread: &Spread, rows: &[&Row]) -> Result<(Vec<String>, usize, Option<(usize, String)>), ReportError> {
+    fn spread_values(&self, spread: &Spread, rows: &[&Row]) -> Result<SpreadColumns, ReportError> {
         let across = self.field(&spread.across)?;
         let only = match &spread.only {
             Some((f, v)) => Some((self.field(f)?, v.clone())),

@@ -214,7 +214,7 @@ impl Life {
     }
 
     fn blink_at(&self, t: f64) -> f64 {
-        let Some(start) = self.blinks.iter().copied().filter(|&b| b <= t).last() else { return 0.0 };
+        let Some(start) = self.blinks.iter().copied().rfind(|&b| b <= t) else { return 0.0 };
         let s = t - start;
         BLINK_SHAPE.windows(2).find(|w| s >= w[0].0 && s <= w[1].0).map_or(0.0, |w| {
             let ((t0, v0), (t1, v1)) = (w[0], w[1]);

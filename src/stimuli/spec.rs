@@ -305,10 +305,10 @@ impl SetSpec {
             return Err(fail("spec", "no [[group]]"));
         }
         let look = Look::parse(raw.backdrop.as_deref(), raw.light.as_deref(), raw.grayscale).map_err(|e| fail("spec", e.to_string()))?;
-        if look.backdrop == Backdrop::Transparent {
-            if let Some(group) = raw.group.iter().find(|g| !g.video_peaks.is_empty()) {
-                return Err(fail(format!("group \"{}\"", group.name), "videos cannot have a transparent backdrop (remove video_peaks or choose another backdrop)"));
-            }
+        if look.backdrop == Backdrop::Transparent
+            && let Some(group) = raw.group.iter().find(|g| !g.video_peaks.is_empty())
+        {
+            return Err(fail(format!("group \"{}\"", group.name), "videos cannot have a transparent backdrop (remove video_peaks or choose another backdrop)"));
         }
 
         let mut entries = Vec::new();
@@ -813,7 +813,7 @@ mod tests {
         let at = std::time::Instant::now();
         let e = err("[[group]]\nname = \"g\"\nexpressions = [\"12\"]\nvideo_peaks = [1]\ntiming = { onset_s = 3e10, apex_s = 0.0, offset_s = 0.0 }\n");
         assert!(e.contains("at most 300 s"), "{e}");
-        let long = format!("{}", ["1"; 30_000].join("+"));
+        let long = ["1"; 30_000].join("+").to_string();
         let e = err(&format!("[[group]]\nname = \"g\"\nexpressions = [\"{long}\"]\nstills = [1]\n"));
         assert!(e.contains("at most 512") && e.len() < 200, "{}", e.len());
         let many = (0..200).map(|_| "\"12\"").collect::<Vec<_>>().join(", ");

@@ -156,7 +156,7 @@ fn check_source(field: &str, s: &Source, index: usize) -> Result<(), DesignError
 /// (`sources` is a design's, never empty.) The source an entry link with `params` belongs to: the one whose worker parameter it
 /// carries, else the local one, else the study's own (whose check then asks for its
 /// parameter).
-pub(super) fn source_for<'a>(sources: &'a [Source], has_param: impl Fn(&str) -> bool) -> &'a Source {
+pub(super) fn source_for(sources: &[Source], has_param: impl Fn(&str) -> bool) -> &Source {
     sources
         .iter()
         .find(|s| s.platform.worker_param().is_some_and(&has_param))

@@ -240,7 +240,7 @@ async fn resume(State(app): State<AppState>, token: ParticipationToken) -> Resul
 async fn at_step(app: &AppState, token: &ParticipationToken, step: &str) -> Result<Result<(Participation, std::sync::Arc<LoadedStudy>, Vec<TrialRow>), Response>, WebError> {
     let (p, study) = participation(app, token).await?;
     let trials = app.db.trials(p.id).await?;
-    let next = next_url(&token, &p, &study, &trials);
+    let next = next_url(token, &p, &study, &trials);
     let here = next.ends_with(step) || (step == "/trial" && next.ends_with("/instructions") && p.state == SessionState::Active);
     if !here {
         return Ok(Err(Redirect::to(&next).into_response()));

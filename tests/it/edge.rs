@@ -37,7 +37,7 @@ async fn edge_a_stranger_with_a_known_worker_id_does_not_take_over_the_participa
 
     // A stranger knows the worker id, and tries it as typed and in every spelling that reads the same.
     let fullwidth: String = WORKER.chars().map(|c| char::from_u32(c as u32 + 0xFEE0).unwrap()).collect();
-    let variants = [WORKER.to_string(), WORKER.to_lowercase(), format!(" {WORKER}\u{a0}"), format!("\u{200b}{WORKER}\u{feff}"), format!("A1B2C3\u{200d}D4E5F6G7"), fullwidth];
+    let variants = [WORKER.to_string(), WORKER.to_lowercase(), format!(" {WORKER}\u{a0}"), format!("\u{200b}{WORKER}\u{feff}"), "A1B2C3\u{200d}D4E5F6G7".to_string(), fullwidth];
     for variant in &variants {
         for cookie in [None, Some("facslab_emo=0123456789abcdef0123456789abcdef"), Some("facslab_other=1")] {
             let r = start_from(&http, &server, "emo", cookie, &[("workerId", variant), ("assignmentId", "ASSIGN-STRANGER")]).await;

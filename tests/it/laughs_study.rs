@@ -110,7 +110,7 @@ async fn click_through(browser: &Browser, scales: &[&str], shots: &std::path::Pa
             browser.set_window_size(1280, 900).await;
         }
         assert_eq!(view.media, "video");
-        let parts = screen_positions(&browser.execute("return document.getElementById('trial').outerHTML;").await.as_str().unwrap().to_string());
+        let parts = screen_positions(browser.execute("return document.getElementById('trial').outerHTML;").await.as_str().unwrap());
         if parts.is_empty() {
             watch_to_the_end(browser).await;
         } else {

@@ -32,7 +32,7 @@ fn psych_ds_errors(root: &Path) -> Vec<String> {
         errors.push("@type is not Dataset".into());
     }
     for field in ["name", "description"] {
-        if !meta[field].as_str().is_some_and(|v| !v.trim().is_empty()) {
+        if meta[field].as_str().is_none_or(|v| v.trim().is_empty()) {
             errors.push(format!("{field} missing"));
         }
     }

@@ -39,7 +39,7 @@ async fn participant(http: reqwest::Client, servers: [String; 2], n: usize) -> R
     assert_eq!(r.status(), 303, "start of w{n}");
     let token = location(&r).rsplit('/').next().unwrap().to_string();
     let mut acknowledged = HashMap::new();
-    if n % 3 == 0 {
+    if n.is_multiple_of(3) {
         return Some(acknowledged);
     }
     let r = http.post(at(1, &format!("/p/{token}/consent"))).form(&[("agree", "1")]).send().await.unwrap();

@@ -109,10 +109,13 @@ fn complete(participants: &[usize], levels: &[Score<'_>]) -> Result<(Vec<Vec<f64
     Ok((rows, partial))
 }
 
+/// A participant's score in a condition's tallies for a label (`None`: over all its stimuli).
+type TallyScore = fn(&Tallies, usize, Option<usize>) -> Option<f64>;
+
 /// The two outcomes, each with a participant's score in a condition's tallies for a label
 /// (`None`: over all its stimuli); believability only when rated, recognition only when answered.
-fn outcomes(ctx: &Context<'_>, answered: bool) -> Vec<(&'static str, fn(&Tallies, usize, Option<usize>) -> Option<f64>)> {
-    let mut out: Vec<(&'static str, fn(&Tallies, usize, Option<usize>) -> Option<f64>)> = Vec::new();
+fn outcomes(ctx: &Context<'_>, answered: bool) -> Vec<(&'static str, TallyScore)> {
+    let mut out: Vec<(&'static str, TallyScore)> = Vec::new();
     if answered {
         out.push((RECOGNITION_OUTCOME, |t, p, l| t.correct_rate(p, l)));
     }
