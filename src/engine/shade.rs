@@ -1428,62 +1428,65 @@ mod corner_hashes {
     #[cfg(test)]
     pub fn of_cell(x: i32, y: i32, z: i32) -> [f32; 8] {
         let (low, high) = halves(x, y, z);
-        let mut corners = [0.0f32; 8];
-        // SAFETY: SSE2 only; the two stores write four floats each within the eight of `corners`.
-        unsafe {
-            _mm_storeu_ps(corners.as_mut_ptr(), low);
-            _mm_storeu_ps(corners.as_mut_ptr().add(4), high);
-        }
-        corners
+        let ([a, b, c, d], [e, f, g, h]) = (lanes(low), lanes(high));
+        [a, b, c, d, e, f, g, h]
     }
 
     /// [`super::blend_corners`] of the cell's corners at `s` (the same operations lane by
     /// lane, so the same value bit for bit), without storing the corners.
     pub fn blend_of_cell(x: i32, y: i32, z: i32, s: glam::Vec3) -> f32 {
         let (low, high) = halves(x, y, z);
+        let (_, across) = along_x(low, high, s.x);
         // SAFETY: SSE2 only, no memory access.
-        unsafe {
-            // From dz = 0 and dz = 1: (dx = 0, dy = 0), (0, 1) of each, and their dx = 1 partners.
-            let from = _mm_shuffle_ps(low, high, 0b10_00_10_00);
-            let to = _mm_shuffle_ps(low, high, 0b11_01_11_01);
-            let along_x = _mm_add_ps(from, _mm_mul_ps(_mm_sub_ps(to, from), _mm_set1_ps(s.x)));
-            // Lanes x00, x10, x01, x11 → (x00, x01) and (x10, x11).
-            let from = _mm_shuffle_ps(along_x, along_x, 0b00_00_10_00);
-            let to = _mm_shuffle_ps(along_x, along_x, 0b00_00_11_01);
-            let along_y = _mm_add_ps(from, _mm_mul_ps(_mm_sub_ps(to, from), _mm_set1_ps(s.y)));
-            let (y0, y1) = (_mm_cvtss_f32(along_y), _mm_cvtss_f32(_mm_shuffle_ps(along_y, along_y, 0b01)));
-            y0 + (y1 - y0) * s.z
-        }
+        let along_y = unsafe {
+            // Lanes x00, x10, x01, x11 → (x00, x01) toward (x10, x11).
+            let from = _mm_shuffle_ps(across, across, 0b00_00_10_00);
+            let to = _mm_shuffle_ps(across, across, 0b00_00_11_01);
+            _mm_add_ps(from, _mm_mul_ps(_mm_sub_ps(to, from), _mm_set1_ps(s.y)))
+        };
+        let [y0, y1, _, _] = lanes(along_y);
+        y0 + (y1 - y0) * s.z
     }
 
     /// [`super::blend_and_rises`] of the cell at `s`, side by side (the same operations lane
     /// by lane, so the same values bit for bit).
     pub fn blend_and_rises_of_cell(x: i32, y: i32, z: i32, s: glam::Vec3) -> (f32, f32, f32) {
         let (low, high) = halves(x, y, z);
+        let (rise_x, across) = along_x(low, high, s.x);
+        // SAFETY: SSE2 only, no memory access.
+        let (rise_y, along_y) = unsafe {
+            // Lanes (blend across x, rise along x) at dy = 0, each at dz = 0 and 1, toward the
+            // same at dy = 1.
+            let from = _mm_shuffle_ps(across, rise_x, 0b10_00_10_00);
+            let to = _mm_shuffle_ps(across, rise_x, 0b11_01_11_01);
+            let rise_y = _mm_sub_ps(to, from);
+            (rise_y, _mm_add_ps(from, _mm_mul_ps(rise_y, _mm_set1_ps(s.y))))
+        };
+        let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
+        let ([value_0, value_1, slope_x_0, slope_x_1], [slope_y_0, slope_y_1, _, _]) = (lanes(along_y), lanes(rise_y));
+        (lerp(value_0, value_1, s.z), lerp(slope_x_0, slope_x_1, s.z), lerp(slope_y_0, slope_y_1, s.z))
+    }
+
+    /// Per (dy, dz) = (0, 0), (1, 0), (0, 1), (1, 1): the rise from dx = 0 to dx = 1, and the
+    /// blend between them at `sx`.
+    #[inline(always)]
+    fn along_x(low: __m128, high: __m128, sx: f32) -> (__m128, __m128) {
         // SAFETY: SSE2 only, no memory access.
         unsafe {
             let from = _mm_shuffle_ps(low, high, 0b10_00_10_00);
             let to = _mm_shuffle_ps(low, high, 0b11_01_11_01);
-            // Per (dy, dz) = (0, 0), (1, 0), (0, 1), (1, 1): the rise along x and the blend across it.
-            let rise_x = _mm_sub_ps(to, from);
-            let across = _mm_add_ps(from, _mm_mul_ps(rise_x, _mm_set1_ps(s.x)));
-            // Blended along y: lanes (blend across x, rise along x) at dy = 0, each at dz = 0 and
-            // 1, toward the same at dy = 1.
-            let from = _mm_shuffle_ps(across, rise_x, 0b10_00_10_00);
-            let to = _mm_shuffle_ps(across, rise_x, 0b11_01_11_01);
-            let rise_y = _mm_sub_ps(to, from);
-            let along_y = _mm_add_ps(from, _mm_mul_ps(rise_y, _mm_set1_ps(s.y)));
-            let lane = |v: __m128, k: i32| -> f32 {
-                let mut out = [0.0f32; 4];
-                _mm_storeu_ps(out.as_mut_ptr(), v);
-                out[k as usize]
-            };
-            let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
-            let value = lerp(lane(along_y, 0), lane(along_y, 1), s.z);
-            let slope_x = lerp(lane(along_y, 2), lane(along_y, 3), s.z);
-            let slope_y = lerp(lane(rise_y, 0), lane(rise_y, 1), s.z);
-            (value, slope_x, slope_y)
+            let rise = _mm_sub_ps(to, from);
+            (rise, _mm_add_ps(from, _mm_mul_ps(rise, _mm_set1_ps(sx))))
         }
+    }
+
+    /// The four lanes of `v`, first lane first.
+    #[inline(always)]
+    fn lanes(v: __m128) -> [f32; 4] {
+        let mut out = [0.0f32; 4];
+        // SAFETY: SSE2 only; the store writes the four floats of `out`.
+        unsafe { _mm_storeu_ps(out.as_mut_ptr(), v) };
+        out
     }
 
     /// The hashes of the cell's corners with dz = 0 and with dz = 1, each in lanes (dx, dy) =
@@ -1943,8 +1946,7 @@ mod tests {
             assert_eq!(corner_hashes::of_cell(x, y, z).map(f32::to_bits), corners.map(f32::to_bits), "cell ({x}, {y}, {z})");
         }
         // The noise and its slopes are those of the blends one corner at a time, bit for bit.
-        for i in 0..5000 {
-            let p = Vec3::new(i as f32 * 0.377 - 900.0, i as f32 * -0.113 + 3.7, (i % 97) as f32 * 0.61 - 20.0);
+        for p in noise_points(5000) {
             assert_eq!(value_noise(p).to_bits(), value_noise_scalar(p).to_bits(), "{p}");
             let ([x, y, z], t) = lattice_offset(p);
             let (value, along_x, along_y) = blend_and_rises(&cell_corners(x, y, z), smoothed(t));
