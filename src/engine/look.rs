@@ -66,6 +66,10 @@ pub struct Lighting {
     pub sky: Vec3,
     pub ground: Vec3,
     pub shadow_floor: f32,
+    /// The key light's size: the tangent of its angular radius seen from the face. A shadow's
+    /// edge blurs over this times the distance from the caster on each side (a soft box
+    /// about a metre across at two and a half metres: 0.15).
+    pub key_size: f32,
 }
 
 impl LightPreset {
@@ -87,18 +91,21 @@ impl LightPreset {
                 sky: Vec3::new(0.16, 0.17, 0.19),
                 ground: Vec3::new(0.07, 0.06, 0.055),
                 shadow_floor: 0.15,
+                key_size: 0.08,
             },
             LightPreset::Soft => Lighting {
                 lights: [light([-0.3, 0.45, 0.85], [0.95, 0.92, 0.88]), light([0.6, 0.1, 0.8], [0.42, 0.43, 0.45]), light([0.2, 0.5, -0.8], [0.2, 0.2, 0.2])],
                 sky: Vec3::new(0.26, 0.26, 0.27),
                 ground: Vec3::new(0.13, 0.12, 0.11),
                 shadow_floor: 0.4,
+                key_size: 0.16,
             },
             LightPreset::Dramatic => Lighting {
                 lights: [light([-0.85, 0.35, 0.4], [1.75, 1.6, 1.45]), light([0.8, 0.0, 0.6], [0.05, 0.055, 0.065]), light([0.6, 0.5, -0.6], [0.7, 0.72, 0.78])],
                 sky: Vec3::new(0.05, 0.05, 0.06),
                 ground: Vec3::new(0.02, 0.02, 0.02),
                 shadow_floor: 0.04,
+                key_size: 0.03,
             },
         }
     }

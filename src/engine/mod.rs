@@ -216,7 +216,8 @@ pub fn render_posed(posed: &Posed, identity: &Identity, settings: FrameSettings)
         let image = cartoon::render(&scene, &camera, parts, threads);
         return Ok(if look.grayscale { image.to_grayscale() } else { image });
     }
-    let key = look.light.lighting().lights[0].direction;
+    let lighting = look.light.lighting();
+    let key = lighting.lights[0].direction;
     let light_centre = posed.anchor + Vec3::new(0.0, -0.3, 0.0);
     // The light sees other hair than the camera does, and its map needs less detail.
     let hair_lit = holder.hair.shadow_casters(shade::ShadowMap::eye(key, light_centre));
@@ -226,7 +227,7 @@ pub fn render_posed(posed: &Posed, identity: &Identity, settings: FrameSettings)
         .into_iter()
         .filter(|t| !matches!(Part::from_id(t.part), Some(Part::LashesUpper | Part::LashesLower)))
         .collect();
-    let shadow = shade::ShadowMap::new(&casters, key, light_centre, SHADOW_MAP_SIZE, threads);
+    let shadow = shade::ShadowMap::new(&casters, key, lighting.key_size, light_centre, SHADOW_MAP_SIZE, threads);
     let shader = shade::FaceShader::new(model, posed, identity, &look, &camera)
         .with_body(&holder.body)
         .with_hair(&holder.hair, &holder.hair_seen)

@@ -15,7 +15,8 @@
 //! averages them: their contrast falls with the number of their cells one pixel spans, worked
 //! out from the camera ([`FaceShader::new`]).
 //!
-//! Light: the key light with its shadow map, fill lights and a sky; skin under and beside the
+//! Light: the key light with its shadow map (whose edges blur with the caster's distance and the
+//! light's size, [`ShadowMap`]), fill lights and a sky; skin under and beside the
 //! hair gets only the share of the sky and the fill lights the hair leaves it
 //! ([`super::hair::HairModel::skin_open`]).
 //!
@@ -53,18 +54,96 @@ fn regions(model: &FaceModel) -> &'static Regions {
 }
 
 /// Depth of the head as seen from the key light, for cast shadows (the nose on the cheek, the
-/// brow ridge on the eyes, the chin on the neck).
+/// brow ridge on the eyes, the chin on the neck), and the same at a quarter of the resolution for
+/// the wide soft edges of shadows cast from afar (the jaw on the neck, the head on the
+/// shoulders): a light of some size blurs a shadow's edge the more, the farther the caster is.
 pub struct ShadowMap {
     camera: Camera,
     view: glam::Mat4,
     projection: PixelProjection,
     near: f32,
     distance: Vec<f32>,
+    /// One texel per [`COARSE`]² block of `distance`: about the lower median of its depths (the
+    /// second nearest of four, of the second nearest of four); `coarse_size` across.
+    coarse: Vec<f32>,
+    coarse_size: usize,
+    /// One texel per [`NEAREST`]² block of `coarse`: the nearest of its depths (`nearest_size`
+    /// across), to pass over the coarse filter where it would find nothing.
+    nearest: Vec<f32>,
+    nearest_size: usize,
+    /// A shadow edge's half-width in texels of `distance` per decimetre between caster and
+    /// receiver: the key light's size ([`Lighting::key_size`]) over a texel's width.
+    spread: f32,
+    /// How far in front of a point a caster must be for its edge to blur wider than the fine
+    /// filter's (decimetres, at least [`COARSE_BIAS`]): the coarse filter looks for those only.
+    far: f32,
+}
+
+/// How far the map is seen from, toward the key light (decimetres).
+const SHADOW_EYE_DISTANCE: f32 = 60.0;
+/// The coarse map's texels are this many of the fine map's across.
+const COARSE: usize = 4;
+/// The nearest-depth map's texels are this many of the coarse map's across.
+const NEAREST: usize = 4;
+// Both maps are made by halving twice, the fine map and the coarse one.
+const _: () = assert!(COARSE == 1 << 2 && NEAREST == 1 << 2);
+/// How far behind the nearest surface a point must lie to be shadowed (decimetres), on the
+/// fine map and on the coarse one (whose texels span more of a sloping surface).
+const FINE_BIAS: f32 = 0.035;
+const COARSE_BIAS: f32 = 0.1;
+/// Half-widths of the two filters' edges in fine texels: 1.5 texels of each map.
+const FINE_REACH: f32 = 1.5;
+const COARSE_REACH: f32 = 1.5 * COARSE as f32;
+/// How far off the surface, along its normal, the key light is looked up (decimetres).
+const NORMAL_OFFSET: f32 = 0.02;
+/// Surfaces whose normal's cosine with the key light's direction is below this take no key
+/// light: the wrapped diffuse of the skin's red reaches 0.56 past the terminator, and this
+/// leaves a margin for normals interpolated across a triangle.
+const FACING_AWAY: f32 = -0.75;
+
+/// The key light reaching a point: `reach` with soft edges; `sharp` from the fine map alone,
+/// and `soft` the share the coarse map takes in `reach`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct KeyShadow {
+    reach: f32,
+    sharp: f32,
+    soft: f32,
+}
+
+impl KeyShadow {
+    /// Nothing between the point and the light.
+    const OPEN: KeyShadow = KeyShadow { reach: 1.0, sharp: 1.0, soft: 0.0 };
+    /// No key light at all.
+    const DARK: KeyShadow = KeyShadow { reach: 0.0, sharp: 0.0, soft: 0.0 };
+}
+
+/// The key light reaching each vertex of one scene item ([`KeyShadow`] by field), for
+/// interpolation across its triangles.
+#[derive(Debug, Default)]
+struct KeyLight {
+    reach: Vec<f32>,
+    /// `sharp` and `soft` of each vertex.
+    edge: Vec<[f32; 2]>,
+}
+
+impl KeyLight {
+    /// `n` vertices in the open.
+    fn open(n: usize) -> KeyLight {
+        KeyLight::from_iter(std::iter::repeat_n(KeyShadow::OPEN, n))
+    }
+}
+
+impl FromIterator<KeyShadow> for KeyLight {
+    fn from_iter<I: IntoIterator<Item = KeyShadow>>(shadows: I) -> KeyLight {
+        let (reach, edge) = shadows.into_iter().map(|k| (k.reach, [k.sharp, k.soft])).unzip();
+        KeyLight { reach, edge }
+    }
 }
 
 impl ShadowMap {
-    /// Renders the depth of `scene` from the key light, aimed at `centre`.
-    pub fn new(scene: &[Triangles], key_direction: Vec3, centre: Vec3, size: u32, threads: Option<usize>) -> ShadowMap {
+    /// Renders the depth of `scene` from the key light, aimed at `centre`, for a key light of
+    /// size `key_size` ([`Lighting::key_size`]).
+    pub fn new(scene: &[Triangles], key_direction: Vec3, key_size: f32, centre: Vec3, size: u32, threads: Option<usize>) -> ShadowMap {
         let camera = Camera {
             eye: Self::eye(key_direction, centre),
             target: centre,
@@ -75,40 +154,173 @@ impl ShadowMap {
         };
         let options = RenderOptions { samples_per_pixel: SampleCount::X1, threads, backface_culling: true, shade_per_surface: false };
         let distance = raster::nearest_distances(scene, &camera, &options);
-        ShadowMap { view: camera.view(), projection: camera.pixel_projection(), near: camera.near(), camera, distance }
+        let (half, half_size) = halve(&distance, size as usize, second_nearest);
+        let (coarse, coarse_size) = halve(&half, half_size, second_nearest);
+        let (half, half_size) = halve(&coarse, coarse_size, nearest);
+        let (nearest_map, nearest_size) = halve(&half, half_size, nearest);
+        let texel = 2.0 * SHADOW_EYE_DISTANCE * (camera.fov_y_degrees.to_radians() / 2.0).tan() / size as f32;
+        let spread = key_size / texel;
+        let far = if spread > 0.0 { (FINE_REACH / spread).max(COARSE_BIAS) } else { f32::INFINITY };
+        ShadowMap { view: camera.view(), projection: camera.pixel_projection(), near: camera.near(), camera, distance, coarse, coarse_size, nearest: nearest_map, nearest_size, spread, far }
     }
 
     /// Where the map is seen from: far out toward the key light from `centre`.
     pub fn eye(key_direction: Vec3, centre: Vec3) -> Vec3 {
-        centre + key_direction * 60.0
+        centre + key_direction * SHADOW_EYE_DISTANCE
     }
 
-    /// Fraction of the key light reaching `position` (0 = in shadow), softened over a 4×4 texel footprint.
-    fn light(&self, position: Vec3) -> f32 {
-        let h = self.projection.apply(self.view.transform_point3(position));
-        if h.z < self.near {
-            return 1.0;
+    /// The key light reaching `position` (0 = in shadow): the edge of a shadow filtered over
+    /// 1.5 texels of the fine map on each side, blending into 1.5 texels of the coarse map as
+    /// the caster's distance times [`Self::spread`] widens it.
+    fn at(&self, position: Vec3) -> KeyShadow {
+        let Some((x, y, depth)) = self.texel_point(position) else { return KeyShadow::OPEN };
+        let size = self.camera.width as usize;
+        let fine = Footprint::new(size, x, y);
+        let lit = fine.lit(&self.distance, depth, FINE_BIAS);
+        let sharp = KeyShadow { reach: lit, sharp: lit, soft: 0.0 };
+        let c = COARSE as f32;
+        let coarse = Footprint::new(self.coarse_size, x / c, y / c);
+        // How far the casters are: those the fine map sees (a near caster keeps its edge sharp,
+        // and the coarse filter passes over it), else those only the coarse one sees (the lit
+        // side of a far caster's blurred edge).
+        let caster = match (lit < 1.0).then(|| fine.blockers(&self.distance, depth, FINE_BIAS)).flatten() {
+            Some(caster) if depth - caster < self.far => return sharp,
+            Some(caster) => caster,
+            None if !self.casters_near(&coarse, depth) => return sharp,
+            None => match coarse.blockers(&self.coarse, depth, self.far) {
+                Some(caster) => caster,
+                None => return sharp,
+            },
+        };
+        let soft = (((depth - caster) * self.spread - FINE_REACH) / (COARSE_REACH - FINE_REACH)).clamp(0.0, 1.0);
+        let blurred = coarse.lit(&self.coarse, depth, self.far);
+        KeyShadow { reach: lit + (blurred - lit) * soft, sharp: lit, soft }
+    }
+
+    /// The key light reaching `position` through the fine map alone (sharp edges).
+    fn sharp(&self, position: Vec3) -> f32 {
+        match self.texel_point(position) {
+            Some((x, y, depth)) => Footprint::new(self.camera.width as usize, x, y).lit(&self.distance, depth, FINE_BIAS),
+            None => 1.0,
         }
-        let p = Vec3::new(h.x / h.z, h.y / h.z, h.z);
-        let (w, h) = (self.camera.width as i32, self.camera.height as i32);
-        // Bilinear percentage-closer filtering over a 4×4 texel footprint.
-        let (fx, fy) = (p.x - 0.5, p.y - 0.5);
-        let (cx, cy) = (fx.floor() as i32, fy.floor() as i32);
+    }
+
+    /// The key light reaching a surface point at `position` facing `normal` (`key` toward the
+    /// light): looked up a little off the surface, so that it does not shadow itself; none
+    /// where the surface faces well away from the light (its own bulk shadows it, and even the
+    /// wrapped diffuse light stops short of it).
+    fn at_surface(&self, position: Vec3, normal: Vec3, key: Vec3) -> KeyShadow {
+        if normal.dot(key) < FACING_AWAY {
+            return KeyShadow::DARK;
+        }
+        self.at(position + normal * NORMAL_OFFSET)
+    }
+
+    /// Where `position` falls on the maps (fine texels) and its depth from the light; `None`
+    /// nearer than the light's near plane.
+    fn texel_point(&self, position: Vec3) -> Option<(f32, f32, f32)> {
+        let h = self.projection.apply(self.view.transform_point3(position));
+        (h.z >= self.near).then(|| (h.x / h.z, h.y / h.z, h.z))
+    }
+
+    /// Whether any texel of the coarse map in `footprint` lies in front of `depth` by more
+    /// than [`Self::far`], read from [`Self::nearest`] (a few texels, where the footprint
+    /// has sixteen): where none does, the coarse filter finds no blocker either.
+    fn casters_near(&self, footprint: &Footprint, depth: f32) -> bool {
+        let (x0, x1) = (footprint.columns[0] / NEAREST, footprint.columns[3] / NEAREST);
+        let (y0, y1) = (footprint.rows[0] / self.coarse_size / NEAREST, footprint.rows[3] / self.coarse_size / NEAREST);
+        (y0..=y1).any(|y| (x0..=x1).any(|x| depth > self.nearest[y * self.nearest_size + x] + self.far))
+    }
+}
+
+/// The 4×4 texels round (`x`, `y`) (texel centres at half-integers) of a square map `size`
+/// texels across, with the bilinear weights of percentage-closer filtering (summing to 9).
+struct Footprint {
+    rows: [usize; 4],
+    columns: [usize; 4],
+    weights: ([f32; 4], [f32; 4]),
+}
+
+impl Footprint {
+    #[inline]
+    fn new(size: usize, x: f32, y: f32) -> Footprint {
+        let last = size as i32 - 1;
+        let (fx, fy) = (x - 0.5, y - 0.5);
+        let (cx, cy) = (floor_i32(fx), floor_i32(fy));
         let (tx, ty) = (fx - cx as f32, fy - cy as f32);
         let weights = |t: f32| [1.0 - t, 1.0, 1.0, t];
-        let (wx, wy) = (weights(tx), weights(ty));
-        let columns: [usize; 4] = std::array::from_fn(|k| (cx + k as i32 - 1).clamp(0, w - 1) as usize);
-        let bias = 0.035;
+        let texels = |c: i32| std::array::from_fn(|k| (c + k as i32 - 1).clamp(0, last) as usize);
+        Footprint { rows: texels(cy).map(|r| r * size), columns: texels(cx), weights: (weights(tx), weights(ty)) }
+    }
+
+    /// The weighted share of the texels of `map` that let the light through to a point at
+    /// `depth` (it lies no more than `bias` behind them).
+    #[inline]
+    fn lit(&self, map: &[f32], depth: f32, bias: f32) -> f32 {
         let mut lit = 0.0;
-        for (k, wy) in wy.into_iter().enumerate() {
-            let row = &self.distance[(cy + k as i32 - 1).clamp(0, h - 1) as usize * w as usize..];
-            for (&x, wx) in columns.iter().zip(wx) {
+        for (&row, wy) in self.rows.iter().zip(self.weights.1) {
+            for (&x, wx) in self.columns.iter().zip(self.weights.0) {
                 // Adding 0 leaves the sum as it was: the same value as skipping the texel.
-                lit += if p.z <= row[x] + bias { wx * wy } else { 0.0 };
+                lit += if depth <= map[row + x] + bias { wx * wy } else { 0.0 };
             }
         }
         lit / 9.0
     }
+
+    /// The weighted mean depth of the texels of `map` that block the light from a point at
+    /// `depth`, if any do.
+    fn blockers(&self, map: &[f32], depth: f32, bias: f32) -> Option<f32> {
+        let (mut weight, mut sum) = (0.0, 0.0);
+        for (&row, wy) in self.rows.iter().zip(self.weights.1) {
+            for (&x, wx) in self.columns.iter().zip(self.weights.0) {
+                let texel = map[row + x];
+                if depth > texel + bias {
+                    weight += wx * wy;
+                    sum += wx * wy * texel;
+                }
+            }
+        }
+        (weight > 0.0).then(|| sum / weight)
+    }
+}
+
+/// The square map `map` (`size` texels across) at half its resolution: each texel `reduce` of
+/// the 2×2 it covers (the last row and column repeated where `size` is odd); and its size.
+fn halve(map: &[f32], size: usize, reduce: impl Fn([f32; 4]) -> f32) -> (Vec<f32>, usize) {
+    let half = size.div_ceil(2);
+    let mut halved = Vec::with_capacity(half * half);
+    let row = |y: usize| &map[y.min(size - 1) * size..][..size];
+    for y in 0..half {
+        let (top, bottom) = (row(2 * y), row(2 * y + 1));
+        halved.extend(top.chunks_exact(2).zip(bottom.chunks_exact(2)).map(|(t, b)| reduce([t[0], t[1], b[0], b[1]])));
+        if size % 2 == 1 {
+            let (t, b) = (top[size - 1], bottom[size - 1]);
+            halved.push(reduce([t, t, b, b]));
+        }
+    }
+    (halved, half)
+}
+
+/// The second smallest of four depths: the lower median, which keeps a caster's edge about
+/// where most of the texels put it.
+fn second_nearest([a, b, c, d]: [f32; 4]) -> f32 {
+    let (low, high) = (lesser(a, b), greater(a, b));
+    let (low2, high2) = (lesser(c, d), greater(c, d));
+    lesser(greater(low, low2), lesser(high, high2))
+}
+
+fn nearest([a, b, c, d]: [f32; 4]) -> f32 {
+    lesser(lesser(a, b), lesser(c, d))
+}
+
+/// The smaller and the greater of two depths (never NaN: one instruction each, where
+/// `f32::min` and `max` also sort out NaNs).
+fn lesser(a: f32, b: f32) -> f32 {
+    if a < b { a } else { b }
+}
+
+fn greater(a: f32, b: f32) -> f32 {
+    if a > b { a } else { b }
 }
 
 /// How much a triangle's corners may differ in key light and still be interpolated (a shadow's
@@ -118,8 +330,9 @@ const SHADOW_EDGE: f32 = 0.02;
 /// The key light reaching each hair card vertex, looked up once per row of a card (the two
 /// vertices across the strand at one of its points share the value) and only for the rows of
 /// cards the camera sees (`seen`, see [`Hair::seen_from`]); 1 elsewhere. Hair has no normal
-/// to offset along: the lookup is nudged toward the light (`key`) instead.
-fn hair_key_light(hair: &Hair, seen: &[[u32; 3]], shadow: &ShadowMap, key: Vec3) -> Vec<f32> {
+/// to offset along: the lookup is nudged toward the light (`key`) instead. From the fine map
+/// alone: in the hair's depth its own strands, close by, make the shadows.
+fn hair_key_light(hair: &Hair, seen: &[[u32; 3]], shadow: &ShadowMap, key: Vec3) -> KeyLight {
     let mut row_seen = vec![false; hair.positions.len() / 2];
     for &[a, b, c] in seen {
         if a != b {
@@ -128,13 +341,9 @@ fn hair_key_light(hair: &Hair, seen: &[[u32; 3]], shadow: &ShadowMap, key: Vec3)
             }
         }
     }
-    let mut light = vec![1.0; hair.positions.len()];
-    for ((row, pair), seen) in light.chunks_exact_mut(2).zip(hair.positions.chunks_exact(2)).zip(row_seen) {
-        if seen {
-            row.fill(shadow.light((pair[0] + pair[1]) * 0.5 + key * 0.03));
-        }
-    }
-    light
+    let rows = hair.positions.chunks_exact(2).zip(row_seen);
+    let light = rows.map(|(pair, seen)| if seen { shadow.sharp((pair[0] + pair[1]) * 0.5 + key * 0.03) } else { 1.0 });
+    light.flat_map(|sharp| [KeyShadow { reach: sharp, sharp, soft: 0.0 }; 2]).collect()
 }
 
 /// Slowly varying painted features and region weights of one skin vertex, interpolated across
@@ -297,16 +506,16 @@ type ActivePatterns = Vec<(Relief, f32, f32)>;
 /// Shades the head for one frame.
 pub struct FaceShader<'a> {
     maps: Arc<SkinMaps>,
-    /// Fraction of the key light reaching each vertex (1 everywhere without a shadow map).
-    key_light: Vec<f32>,
+    /// The key light reaching each vertex (1 everywhere without a shadow map).
+    key_light: KeyLight,
     /// The generated neck and shoulders, and the key light reaching each of their vertices.
     body: Option<&'a Body>,
-    body_key_light: Vec<f32>,
+    body_key_light: KeyLight,
     /// The hair cards, and the key light reaching each of their vertices.
     hair: Option<&'a Hair>,
     /// The hair's triangles the camera sees (hidden ones degenerate).
     hair_seen: &'a [[u32; 3]],
-    hair_key_light: Vec<f32>,
+    hair_key_light: KeyLight,
     /// The key light's shadow map, looked up per pixel where a shadow's edge crosses a triangle.
     shadow: Option<&'a ShadowMap>,
     patterns: ActivePatterns,
@@ -341,12 +550,12 @@ impl<'a> FaceShader<'a> {
             [u[0].min(b[0]), u[1].max(b[1]), u[2].min(b[2]), u[3].max(b[3])]
         });
         let maps = SkinMaps::cached(model, identity);
-        let key_light = vec![1.0; posed.positions.len()];
+        let key_light = KeyLight::open(posed.positions.len());
         let height = camera.height;
         let backdrop = (0..height).map(|y| look.backdrop.colour(y, height)).collect();
         let (eye, pixel_angle) = (camera.eye, camera.pixel_angle());
         let lighting = look.light.lighting();
-        let (body, body_key_light, hair, hair_key_light) = (None, Vec::new(), None, Vec::new());
+        let (body, body_key_light, hair, hair_key_light) = (None, KeyLight::default(), None, KeyLight::default());
         let backdrop_kind = look.backdrop;
         let hairline = Hairline::of(identity);
         FaceShader { maps, key_light, body, body_key_light, hair, hair_seen: &[], hair_key_light, shadow: None, patterns, relief_bounds, model, posed, identity, hairline, lighting, backdrop_kind, backdrop, eye, pixel_angle }
@@ -357,34 +566,41 @@ impl<'a> FaceShader<'a> {
     /// corners agree; on skin and body triangles a shadow's edge crosses (corners that differ),
     /// looked up per pixel, so the edge follows the shadow, not the mesh.
     pub fn with_shadows(self, shadow: &'a ShadowMap) -> FaceShader<'a> {
-        let key_light = self.posed.positions.iter().zip(&self.posed.normals).map(|(&p, &n)| shadow.light(p + n * 0.02)).collect();
-        let body_key_light = match self.body {
-            Some(body) => body.positions.iter().zip(&body.normals).map(|(&p, &n)| shadow.light(p + n * 0.02)).collect(),
-            None => Vec::new(),
-        };
         let key = self.lighting.lights[0].direction;
-        let hair_key_light = self.hair.map_or_else(Vec::new, |hair| hair_key_light(hair, self.hair_seen, shadow, key));
+        let looked_up = |positions: &[Vec3], normals: &[Vec3]| positions.iter().zip(normals).map(|(&p, &n)| shadow.at_surface(p, n, key)).collect();
+        let key_light = looked_up(&self.posed.positions, &self.posed.normals);
+        let body_key_light = self.body.map_or_else(KeyLight::default, |body| looked_up(&body.positions, &body.normals));
+        let hair_key_light = self.hair.map_or_else(KeyLight::default, |hair| hair_key_light(hair, self.hair_seen, shadow, key));
         FaceShader { key_light, body_key_light, hair_key_light, shadow: Some(shadow), ..self }
     }
 
-    /// The fraction of the key light reaching fragment `f` of the skin or body.
+    /// The fraction of the key light reaching fragment `f` of the skin or body. Where the fine
+    /// map's values at the corners differ, the fine map is looked up at the pixel and takes the
+    /// place of their interpolation in the part of the reach it makes (all of it where the edge
+    /// is sharp, none where the coarse map blurs it).
     fn key_reach(&self, f: &Fragment) -> f32 {
-        let values = self.key_light_of(f.part);
-        let [a, b, c] = f.vertex.map(|v| values[v as usize]);
+        let light = self.key_light_of(f.part);
+        let w = f.barycentric;
+        let mix = |v: [f32; 3]| v[0] * w.x + v[1] * w.y + v[2] * w.z;
+        let reach = mix(f.vertex.map(|v| light.reach[v as usize]));
+        let [a, b, c] = f.vertex.map(|v| light.edge[v as usize]);
         match self.shadow {
-            Some(shadow) if a.max(b).max(c) - a.min(b).min(c) > SHADOW_EDGE => shadow.light(f.position + f.normal * 0.02),
-            _ => a * f.barycentric.x + b * f.barycentric.y + c * f.barycentric.z,
+            Some(shadow) if a[0].max(b[0]).max(c[0]) - a[0].min(b[0]).min(c[0]) > SHADOW_EDGE => {
+                let (sharp, soft) = (mix([a[0], b[0], c[0]]), mix([a[1], b[1], c[1]]));
+                (reach + (shadow.sharp(f.position + f.normal * NORMAL_OFFSET) - sharp) * (1.0 - soft)).clamp(0.0, 1.0)
+            }
+            _ => reach,
         }
     }
 
     /// Shades hair cards too (scene part [`HAIR_PART`]), of which the camera sees `seen`
     /// ([`Hair::seen_from`]).
     pub fn with_hair(self, hair: &'a Hair, seen: &'a [[u32; 3]]) -> FaceShader<'a> {
-        FaceShader { hair_key_light: vec![1.0; hair.positions.len()], hair: Some(hair), hair_seen: seen, ..self }
+        FaceShader { hair_key_light: KeyLight::open(hair.positions.len()), hair: Some(hair), hair_seen: seen, ..self }
     }
 
     /// The key light reaching each vertex of the scene item `part`.
-    fn key_light_of(&self, part: u16) -> &[f32] {
+    fn key_light_of(&self, part: u16) -> &KeyLight {
         match part {
             BODY_PART => &self.body_key_light,
             HAIR_PART => &self.hair_key_light,
@@ -394,7 +610,7 @@ impl<'a> FaceShader<'a> {
 
     /// Shades the generated neck and shoulders too (scene part [`BODY_PART`]).
     pub fn with_body(self, body: &'a Body) -> FaceShader<'a> {
-        FaceShader { body_key_light: vec![1.0; body.positions.len()], body: Some(body), ..self }
+        FaceShader { body_key_light: KeyLight::open(body.positions.len()), body: Some(body), ..self }
     }
 
     fn interpolate(&self, values: &[f32], f: &Fragment) -> f32 {
@@ -432,7 +648,7 @@ impl<'a> FaceShader<'a> {
     fn lit_reached(&self, f: &Fragment, normal: Vec3, albedo: Vec3, surface: Surface, key_reaches: f32) -> Vec3 {
         let Surface { wrap, specular, shininess, open } = surface;
         let view = f.view_dir;
-        let Lighting { lights, sky, ground, shadow_floor } = &self.lighting;
+        let Lighting { lights, sky, ground, shadow_floor, .. } = &self.lighting;
         let ambient = sky.lerp(*ground, (0.5 - 0.5 * normal.y).clamp(0.0, 1.0));
         let mut colour = albedo * ambient * open;
         for (n, light) in lights.iter().enumerate() {
@@ -641,7 +857,7 @@ impl<'a> FaceShader<'a> {
         let streak_noise = value_noise(Vec3::new(f.uv.x * HIGHLIGHT_STREAKS_ACROSS, f.uv.y * 3.0, strand as f32 * STREAK_NOISE_PER_STRAND));
         let streaks = 0.35 + 1.3 * seen_over(streak_noise, HIGHLIGHT_STREAKS_ACROSS * span);
         let look = HairLook { albedo: pigment * tone * fibres * rooted, pigment, fibres, streaks, rooted };
-        self.lit_hair(&look, f.normal, f.view_dir, self.interpolate(&self.hair_key_light, f))
+        self.lit_hair(&look, f.normal, f.view_dir, self.interpolate(&self.hair_key_light.reach, f))
     }
 
     /// How much of its card's width (1 = all of it) one pixel spans at hair fragment `f`: the
@@ -664,7 +880,7 @@ impl<'a> FaceShader<'a> {
         let HairLook { albedo, pigment, fibres, streaks, rooted } = *look;
         // Coils scatter light every way along a strand: tightly coiled hair has little sheen.
         let sheen = if self.identity.hair_texture == HairTexture::Coiled { 0.3 } else { 1.0 };
-        let Lighting { lights, sky, ground, shadow_floor } = &self.lighting;
+        let Lighting { lights, sky, ground, shadow_floor, .. } = &self.lighting;
         let mut colour = albedo * sky.lerp(*ground, 0.5) * 1.2;
         for (n, light) in lights.iter().enumerate() {
             let reach = if n == 0 { shadow_floor + (1.0 - shadow_floor) * key_reaches } else { 1.0 };
@@ -756,7 +972,7 @@ impl<'a> FaceShader<'a> {
         // The socket, lids and brow leave the eyeball a narrow view of the sky and fill lights.
         let surface = Surface { wrap: 0.1, specular: 0.0, shininess: 1.0, open: EYE_SOCKET_OPEN };
         let colour = self.lit_reached(f, d, albedo * lid_shadow, surface, self.key_reach(f));
-        colour + self.cornea_highlight(d, f.view_dir) * self.interpolate(&self.key_light, f)
+        colour + self.cornea_highlight(d, f.view_dir) * self.interpolate(&self.key_light.reach, f)
     }
 
     /// The `lid_raise` weight on eye `side` (0 = the person's left).
@@ -836,7 +1052,7 @@ impl<'a> FaceShader<'a> {
         let w = [f.barycentric.x, f.barycentric.y, f.barycentric.z];
         let mix = |value: &dyn Fn(usize) -> f32| (0..3).map(|k| w[k] * value(behind[k])).sum::<f32>();
         let normal = (0..3).fold(Vec3::ZERO, |n, k| n + self.posed.normals[behind[k]] * w[k]).normalize_or(f.normal);
-        let reach = mix(&|v| self.key_light[v]);
+        let reach = mix(&|v| self.key_light.reach[v]);
         let paint = |field: usize| mix(&|v| self.maps.vertices[v][field]);
         let mut albedo = self.identity.skin * paint(SkinVertex::MOTTLE);
         albedo = albedo.lerp(albedo * Vec3::new(0.84, 0.8, 0.84), 0.6 * paint(SkinVertex::PERIORBITAL));
@@ -1666,6 +1882,81 @@ fn fbm(p: Vec3) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A map of `casters` seen from straight above (+z), `key_size` as the light's size.
+    fn map_from_above(casters: &[[Vec3; 4]], key_size: f32) -> ShadowMap {
+        let positions: Vec<Vec3> = casters.iter().flatten().copied().collect();
+        let indices: Vec<[u32; 3]> = (0..casters.len() as u32).flat_map(|q| [[4 * q, 4 * q + 1, 4 * q + 2], [4 * q, 4 * q + 2, 4 * q + 3]]).collect();
+        let scene = [Triangles { positions: &positions, normals: &[], uvs: &[], indices: &indices, part: 0, two_sided: false }];
+        ShadowMap::new(&scene, Vec3::Z, key_size, Vec3::ZERO, 288, Some(1))
+    }
+
+    /// A rectangle at height `z` over x in `x`, y in −2..2, facing up.
+    fn sheet(x: [f32; 2], z: f32) -> [Vec3; 4] {
+        [Vec3::new(x[0], -2.0, z), Vec3::new(x[1], -2.0, z), Vec3::new(x[1], 2.0, z), Vec3::new(x[0], 2.0, z)]
+    }
+
+    /// The key light across the edge of the shadow a sheet over x < 0 at `height` casts on the
+    /// floor (z = 0), every 0.002 dm from x = −0.4 to 0.4, and the width of its edge: from where
+    /// a tenth of the light arrives to where nine tenths do.
+    fn shadow_edge(height: f32, key_size: f32) -> (Vec<f32>, f32) {
+        let map = map_from_above(&[sheet([-2.0, 2.0], 0.0), sheet([-2.0, 0.0], height)], key_size);
+        let xs: Vec<f32> = (0..=400).map(|i| i as f32 * 0.002 - 0.4).collect();
+        let reach: Vec<f32> = xs.iter().map(|&x| map.at_surface(Vec3::new(x, 0.0, 0.0), Vec3::Z, Vec3::Z).reach).collect();
+        let first = |level: f32| xs[reach.iter().position(|&r| r >= level).expect("the floor is lit beyond the edge")];
+        let width = first(0.9) - first(0.1);
+        (reach, width)
+    }
+
+    #[test]
+    fn a_shadow_edge_widens_with_the_casters_distance_and_the_lights_size() {
+        // The fine map's texel is 1.31 mm; its filter spans ±1.5 texels, the coarse one ±6.
+        let (near, near_width) = shadow_edge(0.1, 0.08);
+        let (_, point_width) = shadow_edge(1.0, 0.0);
+        let (_, middle_width) = shadow_edge(0.5, 0.08);
+        let (far, far_width) = shadow_edge(1.0, 0.08);
+        assert!((0.02..0.05).contains(&near_width), "a caster a centimetre away keeps a sharp edge: {near_width} dm");
+        assert_eq!(near_width, point_width, "a point light keeps every edge sharp");
+        // A light 0.08 wide seen from 1 dm blurs the edge over ±0.08 dm, capped at the coarse
+        // filter's ±6 texels (0.079 dm): from a tenth to nine tenths about 0.8 of that width.
+        assert!((0.10..0.16).contains(&far_width), "a caster 1 dm away blurs its edge: {far_width} dm");
+        assert!(far_width >= 3.0 * near_width, "{far_width} against {near_width}");
+        assert!(near_width < middle_width && middle_width < far_width, "{near_width} < {middle_width} < {far_width}");
+        for reach in [&near, &far] {
+            assert!(reach.windows(2).all(|w| w[1] >= w[0] - 1e-6), "the light rises steadily across the edge");
+            assert!(reach[0] < 0.01 && reach[400] > 0.99, "dark under the sheet, lit beyond: {} {}", reach[0], reach[400]);
+            assert!((0.4..0.6).contains(&reach[200]), "half the light at the edge itself: {}", reach[200]);
+        }
+    }
+
+    #[test]
+    fn where_the_nearest_map_sees_no_caster_the_coarse_filter_finds_none() {
+        // Tiles at heights of their own over a floor: casters at every distance.
+        let mut casters = vec![sheet([-2.0, 2.0], 0.0)];
+        let mut seed = 12345u32;
+        let mut next = || {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (seed >> 8) as f32 / (1u32 << 24) as f32
+        };
+        for _ in 0..300 {
+            let (x, y, z, size) = (next() * 3.6 - 1.8, next() * 3.6 - 1.8, next() * 1.5, 0.02 + next() * 0.2);
+            casters.push([Vec3::new(x, y, z), Vec3::new(x + size, y, z), Vec3::new(x + size, y + size, z), Vec3::new(x, y + size, z)]);
+        }
+        let map = map_from_above(&casters, 0.08);
+        let (mut passed_over, mut found) = (0, 0);
+        for _ in 0..20_000 {
+            let position = Vec3::new(next() * 3.8 - 1.9, next() * 3.8 - 1.9, next() * 1.5);
+            let (x, y, depth) = map.texel_point(position).expect("in front of the light");
+            let coarse = Footprint::new(map.coarse_size, x / COARSE as f32, y / COARSE as f32);
+            let blocker = coarse.blockers(&map.coarse, depth, map.far);
+            if !map.casters_near(&coarse, depth) {
+                assert_eq!(blocker, None, "at {position}");
+                passed_over += 1;
+            }
+            found += usize::from(blocker.is_some());
+        }
+        assert!(passed_over > 2_000 && found > 2_000, "both cases occur: {passed_over} passed over, {found} found");
+    }
 
     #[test]
     fn lobe_power_agrees_with_powf() {
