@@ -1547,17 +1547,25 @@ fn glabella_horizontal(p: Vec2) -> f32 {
 
 fn crows_feet(p: Vec2) -> f32 {
     let origin = Vec2::new(0.485, 7.29);
-    // Unit directions at -0.45, -0.15, 0.15 and 0.45 rad from the horizontal.
+    // Unit directions at -0.45, -0.15, 0.15 and 0.45 rad from the horizontal: the furrows.
     const FAN: [Vec2; 4] = [
         Vec2::new(0.900_447, -0.434_966),
         Vec2::new(0.988_771, -0.149_438),
         Vec2::new(0.988_771, 0.149_438),
         Vec2::new(0.900_447, 0.434_966),
     ];
-    FAN.iter()
-        .map(|dir| segment_distance(p, origin + *dir * 0.02, origin + *dir * 0.11))
-        .map(|d| 0.8 * groove(d, 0.009))
-        .sum()
+    // At -0.3, 0 and 0.3 rad, between them: the skin the furrows bunch.
+    const BUNCHED: [Vec2; 3] = [Vec2::new(0.955_336, -0.295_520), Vec2::X, Vec2::new(0.955_336, 0.295_520)];
+    // Deepest at the eye's corner, fading toward the temple.
+    let line = |dir: Vec2, width: f32| {
+        let (a, b) = (origin + dir * 0.02, origin + dir * 0.11);
+        let ab = b - a;
+        let t = ((p - a).dot(ab) / ab.length_squared()).clamp(0.0, 1.0);
+        (1.0 - 0.5 * t) * groove((p - (a + ab * t)).length(), width)
+    };
+    let furrows: f32 = FAN.iter().map(|&dir| line(dir, 0.011)).sum();
+    let bunched: f32 = BUNCHED.iter().map(|&dir| 0.35 * line(dir, 0.012)).sum();
+    furrows - bunched
 }
 
 fn lower_lid_bulge(p: Vec2) -> f32 {
@@ -2260,6 +2268,24 @@ mod tests {
     /// beside it: its furrow is at least half deep 4 mm above, 4 mm lateral and 3.5 mm below the
     /// corner's level on the curve, the skin between the corner and the furrow bunches up, and
     /// it fades out within 2 cm.
+    #[test]
+    fn crows_feet_are_furrows_that_fade_toward_the_temple_with_skin_bunched_between() {
+        let origin = Vec2::new(0.485, 7.29);
+        let at = |angle: f32, r: f32| crows_feet(origin + Vec2::new(angle.cos(), angle.sin()) * r);
+        for angle in [-0.45, -0.15, 0.15, 0.45] {
+            let (near, far) = (at(angle, 0.03), at(angle, 0.10));
+            assert!(near < -0.5, "the furrow at {angle} rad is {near} near the corner");
+            assert!(far < -0.1 && far > 0.7 * near, "and fades toward the temple: {far} against {near}");
+        }
+        for angle in [-0.3f32, 0.0, 0.3] {
+            let (between, beside) = (at(angle, 0.08), at(angle - 0.15, 0.08).max(at(angle + 0.15, 0.08)));
+            assert!(between > beside + 0.25, "the skin between the furrows at {angle} rad stands {between} over {beside}");
+        }
+        for r in [0.2, 0.25] {
+            assert!(at(0.0, r).abs() < 1e-3, "the crow's feet reach {r} dm from the corner: {}", at(0.0, r));
+        }
+    }
+
     #[test]
     fn the_dimple_is_a_crescent_round_the_mouths_corner() {
         for (x, y) in [(0.283, 6.655), (0.293, 6.615), (0.285, 6.58)] {
