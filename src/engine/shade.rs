@@ -1512,9 +1512,15 @@ fn segment_distance(p: Vec2, a: Vec2, b: Vec2) -> f32 {
 }
 
 fn segment_distance_squared(p: Vec2, a: Vec2, b: Vec2) -> f32 {
+    (p - segment_nearest(p, a, b).0).length_squared()
+}
+
+/// The point of the segment from `a` to `b` nearest `p`, and how far along it that point lies
+/// (0 at `a`, 1 at `b`).
+fn segment_nearest(p: Vec2, a: Vec2, b: Vec2) -> (Vec2, f32) {
     let ab = b - a;
     let t = ((p - a).dot(ab) / ab.length_squared()).clamp(0.0, 1.0);
-    (p - (a + ab * t)).length_squared()
+    (a + ab * t, t)
 }
 
 /// The distance to the nearest segment: one square root of the smallest squared distance,
@@ -1558,10 +1564,8 @@ fn crows_feet(p: Vec2) -> f32 {
     const BUNCHED: [Vec2; 3] = [Vec2::new(0.955_336, -0.295_520), Vec2::X, Vec2::new(0.955_336, 0.295_520)];
     // Deepest at the eye's corner, fading toward the temple.
     let line = |dir: Vec2, width: f32| {
-        let (a, b) = (origin + dir * 0.02, origin + dir * 0.11);
-        let ab = b - a;
-        let t = ((p - a).dot(ab) / ab.length_squared()).clamp(0.0, 1.0);
-        (1.0 - 0.5 * t) * groove((p - (a + ab * t)).length(), width)
+        let (nearest, along) = segment_nearest(p, origin + dir * 0.02, origin + dir * 0.11);
+        (1.0 - 0.5 * along) * groove((p - nearest).length(), width)
     };
     let furrows: f32 = FAN.iter().map(|&dir| line(dir, 0.011)).sum();
     let bunched: f32 = BUNCHED.iter().map(|&dir| 0.35 * line(dir, 0.012)).sum();
