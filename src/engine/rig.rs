@@ -461,6 +461,19 @@ mod tests {
         assert!((values("R6+12").get(&right, Side::Right) - 1.0).abs() < 1e-6);
     }
 
+    /// 6+12: the raised cheek and the deepened nasolabial furrow are those of 6 alone or more,
+    /// not clamped to 12's smaller share (Eq. 1) or 6's (the furrow).
+    #[test]
+    fn six_and_twelve_raise_the_cheek_and_deepen_the_furrow_at_least_as_six_alone() {
+        let (apple, furrow) = (Channel::Shade("cheek_apple".into()), Channel::Shade("nasolabial".into()));
+        for side in Side::BOTH {
+            assert!((values("6+12").get(&apple, side) - values("6").get(&apple, side)).abs() < 1e-6);
+            assert!((values("6").get(&apple, side) - 1.0).abs() < 1e-6);
+            assert!((values("6+12").get(&furrow, side) - 0.9).abs() < 1e-6, "{}", values("6+12").get(&furrow, side));
+            assert!(values("6+12").get(&furrow, side) > values("12").get(&furrow, side));
+        }
+    }
+
     #[test]
     fn only_one_sided_targets_may_blend_over_the_narrow_midline() {
         let au = "[[au]]\ncode = 10\nchannels = [{ channel = \"target:faceunits/mouthUpperUpLeft\", side = \"left\", max = 1.0 }, { channel = \"shade:nasolabial\", max = 1.0 }]\n";

@@ -7,7 +7,7 @@
 //!
 //! Appearance channels (`shade:NAME` in the AU basis), each a furrow/bulge height field:
 //! `forehead_inner`, `forehead_outer`, `glabella_vertical`, `glabella_horizontal`, `crows_feet`,
-//! `lower_lid_bulge`, `nose_wrinkles`, `nasolabial`, `dimple`, `chin_boss`, `lip_press_bulge`;
+//! `lower_lid_bulge`, `nose_wrinkles`, `nasolabial`, `cheek_apple`, `dimple`, `chin_boss`, `lip_press_bulge`;
 //! and `lid_raise`, which moves the upper lid's shadow on the eyeball up with a raised lid.
 //!
 //! Patterns finer than a pixel (hair fibres, the sheen's streaks, brow hairs, the hairline's
@@ -1486,7 +1486,7 @@ impl Relief {
     }
 }
 
-const PATTERNS: [(&str, Relief); 11] = [
+const PATTERNS: [(&str, Relief); 12] = [
     ("forehead_inner", Relief { pattern: forehead_inner, bounds: [0.0, 0.32, 7.6, 8.05] }),
     ("forehead_outer", Relief { pattern: forehead_outer, bounds: [0.08, 0.6, 7.55, 8.0] }),
     ("glabella_vertical", Relief { pattern: glabella_vertical, bounds: [0.0, 0.1, 7.35, 7.62] }),
@@ -1494,7 +1494,8 @@ const PATTERNS: [(&str, Relief); 11] = [
     ("crows_feet", Relief { pattern: crows_feet, bounds: [0.45, 0.64, 7.18, 7.42] }),
     ("lower_lid_bulge", Relief { pattern: lower_lid_bulge, bounds: [0.14, 0.47, 7.08, 7.22] }),
     ("nose_wrinkles", Relief { pattern: nose_wrinkles, bounds: [0.0, 0.17, 7.14, 7.36] }),
-    ("nasolabial", Relief { pattern: nasolabial, bounds: [0.09, 0.35, 6.5, 7.0] }),
+    ("nasolabial", Relief { pattern: nasolabial, bounds: [0.09, 0.4, 6.5, 7.0] }),
+    ("cheek_apple", Relief { pattern: cheek_apple, bounds: [0.15, 0.45, 6.84, 7.1] }),
     ("dimple", Relief { pattern: dimple, bounds: [0.22, 0.36, 6.52, 6.71] }),
     ("chin_boss", Relief { pattern: chin_boss, bounds: [0.0, 0.2, 6.2, 6.52] }),
     ("lip_press_bulge", Relief { pattern: lip_press_bulge, bounds: [0.0, 0.24, 6.41, 6.8] }),
@@ -1583,9 +1584,41 @@ fn nose_wrinkles(p: Vec2) -> f32 {
     span * lines
 }
 
+/// The nasolabial furrow from beside the nose's wing to beyond the mouth's corner: the upper
+/// lip's skin slopes gently into it, and on its cheek side the cheek's mass rises steeply from
+/// it into a rounded ridge (deepened, as AU6, AU10, AU11 and AU12 deepen it, the cheek bulges
+/// over the furrow). Along its ends the ridge fades in and out; across the line through each
+/// end the two sides blend over 2 mm, so the furrow has no seam.
 fn nasolabial(p: Vec2) -> f32 {
-    let fold = [Vec2::new(0.15, 6.94), Vec2::new(0.20, 6.82), Vec2::new(0.25, 6.70), Vec2::new(0.285, 6.58)];
-    1.3 * groove(polyline_distance(p, &fold), 0.024)
+    const FOLD: [Vec2; 4] = [Vec2::new(0.15, 6.94), Vec2::new(0.20, 6.82), Vec2::new(0.25, 6.70), Vec2::new(0.285, 6.58)];
+    let (d, across, along) = polyline_across(p, &FOLD);
+    let cheek = smoothstep(-0.01, 0.01, across);
+    let span = smoothstep(0.0, 0.2, along) * (1.0 - smoothstep(0.75, 1.0, along));
+    let ridge = if d < 0.2 { d / 0.025 * (1.0 - d / 0.025).exp() } else { 0.0 };
+    1.3 * groove(d, 0.024 - 0.01 * cheek) + 0.8 * cheek * span * ridge
+}
+
+/// The nearest point of the polyline `points` to `p`: its distance, how far `p` lies across
+/// the polyline's direction there (positive to its left, y up: the cheek's side of a furrow
+/// drawn down and out on the face's left half; zero on the lines through its ends along it),
+/// and how far along the polyline it lies (0 at its first point, 1 at its last).
+fn polyline_across(p: Vec2, points: &[Vec2]) -> (f32, f32, f32) {
+    let segments = points.len().saturating_sub(1).max(1) as f32;
+    let mut best = (f32::INFINITY, 0.0, 0.0);
+    for (i, w) in points.windows(2).enumerate() {
+        let (nearest, t) = segment_nearest(p, w[0], w[1]);
+        let d2 = (p - nearest).length_squared();
+        if d2 < best.0 {
+            best = (d2, (w[1] - w[0]).normalize().perp_dot(p - nearest), (i as f32 + t) / segments);
+        }
+    }
+    (best.0.sqrt(), best.1, best.2)
+}
+
+/// AU6's raised cheek: the infraorbital triangle's skin and fat bunched up into a rounded mass
+/// below the lower lid's furrow, above and beside the nasolabial furrow.
+fn cheek_apple(p: Vec2) -> f32 {
+    3.0 * blob(p, Vec2::new(0.30, 6.97), Vec2::new(0.14, 0.11))
 }
 
 /// AU14's dimpler: the tucked corner (the mouth's corner lies at x 0.25, y 6.615 at rest) sinks
@@ -2261,6 +2294,63 @@ mod tests {
         }
     }
 
+    /// Across the middle of the nasolabial furrow (at rest x 0.20, y 6.82, running down and out
+    /// along (0.05, −0.12)), the lip's side slopes into it over about 3 mm and the cheek's side
+    /// rises out of it within 1.5 mm into a ridge that stands above the surrounding skin; beyond
+    /// each end of the furrow the two sides meet without a step.
+    #[test]
+    fn the_cheek_bulges_over_the_nasolabial_furrow_and_its_ends_have_no_seam() {
+        let (middle, across) = (Vec2::new(0.20, 6.82), Vec2::new(0.12, 0.05).normalize());
+        let at = |mm: f32| nasolabial(middle + across * (mm / 100.0));
+        let bottom = at(0.0);
+        assert!(bottom < -1.25, "the furrow's bottom is {bottom}");
+        assert!(at(-1.5) < 0.5 * bottom, "the lip's side 1.5 mm in is still {} of {bottom}", at(-1.5));
+        assert!(at(1.5) > 0.5 * bottom + 0.5, "the cheek's side 1.5 mm out is {}", at(1.5));
+        let ridge = at(2.5);
+        assert!(ridge > 0.5, "the cheek's ridge 2.5 mm out stands {ridge}");
+        assert!(ridge > at(-2.5) + 1.0 && ridge > at(8.0) + 0.2, "and above the skin beside it: {ridge}, {}, {}", at(-2.5), at(8.0));
+        // The lines through each end, along the furrow's direction there: a step across them
+        // would be a seam.
+        for (end, along) in [(Vec2::new(0.15, 6.94), Vec2::new(-0.05, 0.12)), (Vec2::new(0.285, 6.58), Vec2::new(0.035, -0.12))] {
+            let (along, normal) = (along.normalize(), along.normalize().perp());
+            for beyond in [0.005f32, 0.01, 0.02, 0.04] {
+                let on_line = end + along * beyond;
+                let step = (nasolabial(on_line + normal * 1e-4) - nasolabial(on_line - normal * 1e-4)).abs();
+                assert!(step < 0.02, "a step of {step} across the line {beyond} dm beyond {end}");
+            }
+        }
+    }
+
+    /// AU6's cheek: a mound whose top lies below the lower lid, highest at its centre and gone
+    /// by the lid's furrow above and the mouth's corner below.
+    #[test]
+    fn the_raised_cheek_is_a_mound_below_the_lower_lid() {
+        let top = cheek_apple(Vec2::new(0.30, 6.97));
+        assert!(top > 2.9, "the cheek's top stands {top}");
+        assert!(cheek_apple(Vec2::new(0.30, 7.04)) < 0.6 * top && cheek_apple(Vec2::new(0.40, 6.97)) < 0.6 * top);
+        for (x, y) in [(0.30, 7.125), (0.25, 6.615), (0.10, 6.97)] {
+            assert_eq!(cheek_apple(Vec2::new(x, y)), 0.0, "at ({x}, {y})");
+        }
+    }
+
+    /// Every appearance channel the AU basis or a corrective drives is drawn: a pattern of its
+    /// name exists (or it is `lid_raise`, the eyeball's lid shadow).
+    #[test]
+    fn every_appearance_channel_the_basis_drives_is_drawn() {
+        use crate::engine::rig::{AuBasis, Channel};
+        let basis = AuBasis::built_in();
+        let catalog = crate::facs::Catalog::built_in();
+        let rigs = catalog.iter().filter_map(|unit| basis.get(unit.code)).flat_map(|rig| &rig.channels);
+        let correctives = basis.correctives().iter().flat_map(|c| &c.channels);
+        let mut names: Vec<&str> = rigs.chain(correctives).filter_map(|u| match &u.channel { Channel::Shade(name) => Some(name.as_str()), _ => None }).collect();
+        names.sort_unstable();
+        names.dedup();
+        assert!(names.contains(&"cheek_apple"), "{names:?}");
+        for name in names {
+            assert!(name == "lid_raise" || PATTERNS.iter().any(|(n, _)| *n == name), "shade:{name} draws nothing");
+        }
+    }
+
     #[test]
     fn patterns_are_furrows_where_expected() {
         assert!(nasolabial(Vec2::new(0.20, 6.82)) < -1.0);
@@ -2268,10 +2358,6 @@ mod tests {
         assert!(forehead_inner(Vec2::new(0.0, 7.72)) < -0.9);
     }
 
-    /// AU14's dimple is a crescent round the mouth's corner (x 0.25, y 6.615 at rest), not a dot
-    /// beside it: its furrow is at least half deep 4 mm above, 4 mm lateral and 3.5 mm below the
-    /// corner's level on the curve, the skin between the corner and the furrow bunches up, and
-    /// it fades out within 2 cm.
     #[test]
     fn crows_feet_are_furrows_that_fade_toward_the_temple_with_skin_bunched_between() {
         let origin = Vec2::new(0.485, 7.29);
@@ -2290,6 +2376,10 @@ mod tests {
         }
     }
 
+    /// AU14's dimple is a crescent round the mouth's corner (x 0.25, y 6.615 at rest), not a dot
+    /// beside it: its furrow is at least half deep 4 mm above, 4 mm lateral and 3.5 mm below the
+    /// corner's level on the curve, the skin between the corner and the furrow bunches up, and
+    /// it fades out within 2 cm.
     #[test]
     fn the_dimple_is_a_crescent_round_the_mouths_corner() {
         for (x, y) in [(0.283, 6.655), (0.293, 6.615), (0.285, 6.58)] {
