@@ -477,19 +477,24 @@ impl Setup {
                 if c0 & c1 & c2 != 0 || (i0 == i1 && i1 == i2) {
                     continue; // entirely outside one plane, or a point (hidden hair is given so)
                 }
-                let corners = [
-                    ClipVertex { h: homogeneous[i0], bary: Vec3::X },
-                    ClipVertex { h: homogeneous[i1], bary: Vec3::Y },
-                    ClipVertex { h: homogeneous[i2], bary: Vec3::Z },
-                ];
                 let (item, triangle) = (item as u32, t as u32);
                 if c0 | c1 | c2 == 0 {
-                    setup.emit(corners, [snapped[i0], snapped[i1], snapped[i2]], item, triangle, backface_culling);
+                    // No clipping (most triangles): the corners' snapped points and depths as
+                    // they are.
+                    let q = [snapped[i0], snapped[i1], snapped[i2]];
+                    let w = [homogeneous[i0].z, homogeneous[i1].z, homogeneous[i2].z];
+                    setup.emit(q, w, [Vec3::X, Vec3::Y, Vec3::Z], item, triangle, backface_culling);
                 } else {
+                    let corners = [
+                        ClipVertex { h: homogeneous[i0], bary: Vec3::X },
+                        ClipVertex { h: homogeneous[i1], bary: Vec3::Y },
+                        ClipVertex { h: homogeneous[i2], bary: Vec3::Z },
+                    ];
                     let (poly, len) = clip_polygon(corners, near, wf, hf);
                     for k in 1..len.saturating_sub(1) {
                         let corners = [poly[0], poly[k], poly[k + 1]];
-                        setup.emit(corners, corners.map(|c| snap(c.h)), item, triangle, backface_culling);
+                        let (q, w, bary) = (corners.map(|c| snap(c.h)), corners.map(|c| c.h.z), corners.map(|c| c.bary));
+                        setup.emit(q, w, bary, item, triangle, backface_culling);
                     }
                 }
             }
@@ -499,22 +504,24 @@ impl Setup {
         setup
     }
 
-    /// Snaps, orients and stores one (possibly clipped) triangle.
-    /// `q`: the corners snapped to fixed point ([`snap`]).
-    fn emit(&mut self, v: [ClipVertex; 3], q: [[i64; 2]; 3], item: u32, triangle: u32, backface_culling: bool) {
-        let mut q = q;
-        let mut v = v;
+    /// Orients and stores one (possibly clipped) triangle, unless it is culled. `q`: the corners
+    /// snapped to fixed point ([`snap`]); `w`: their homogeneous w; `bary`: their barycentric
+    /// coordinates with respect to the original triangle. Inlined, so that the culled half of
+    /// a closed mesh costs no call.
+    #[inline(always)]
+    fn emit(&mut self, q: [[i64; 2]; 3], w: [f32; 3], bary: [Vec3; 3], item: u32, triangle: u32, backface_culling: bool) {
         let area2 = (q[1][0] - q[0][0]) * (q[2][1] - q[0][1]) - (q[1][1] - q[0][1]) * (q[2][0] - q[0][0]);
-        if area2 == 0 {
-            return;
-        }
         // With y down, a triangle that is counter-clockwise as seen by the viewer has area2 < 0.
         if area2 < 0 {
-            q.swap(1, 2);
-            v.swap(1, 2);
-        } else if backface_culling {
-            return;
+            self.store(swap_last(q), swap_last(w), swap_last(bary), item, triangle);
+        } else if area2 > 0 && !backface_culling {
+            self.store(q, w, bary, item, triangle);
         }
+    }
+
+    /// Stores one triangle whose corners `q` (as for [`Self::emit`]) run so that its edge
+    /// functions are positive inside.
+    fn store(&mut self, q: [[i64; 2]; 3], w: [f32; 3], bary: [Vec3; 3], item: u32, triangle: u32) {
         let min_x = q.iter().map(|p| p[0]).min().unwrap();
         let max_x = q.iter().map(|p| p[0]).max().unwrap();
         let min_y = q.iter().map(|p| p[1]).min().unwrap();
@@ -545,7 +552,7 @@ impl Setup {
             }
         }
         let p = q.map(|p| [p[0] as f64 / SUB as f64, p[1] as f64 / SUB as f64]);
-        let inv_w = v.map(|c| 1.0 / f64::from(c.h.z));
+        let inv_w = w.map(|z| 1.0 / f64::from(z));
         let (d1x, d1y) = (p[1][0] - p[0][0], p[1][1] - p[0][1]);
         let (d2x, d2y) = (p[2][0] - p[0][0], p[2][1] - p[0][1]);
         let det = d1x * d2y - d1y * d2x;
@@ -572,7 +579,7 @@ impl Setup {
             let (dx, dy) = (pj[0] - pi[0], pj[1] - pi[1]);
             [-dy * inv_w[k], dx * inv_w[k], (dy * pi[0] - dx * pi[1]) * inv_w[k]]
         });
-        self.shade.push(ShadeTri { item, triangle, weight, bary: v.map(|c| c.bary) });
+        self.shade.push(ShadeTri { item, triangle, weight, bary });
     }
 
     /// Fills the per-tile triangle lists, each in scene order.
@@ -638,6 +645,11 @@ impl RasterTri {
             self.a[k] * x + self.b[k] * y + self.c[k] >= 0
         })
     }
+}
+
+/// The three corners of a triangle in the other order (the first kept, the others swapped).
+fn swap_last<T>([a, b, c]: [T; 3]) -> [T; 3] {
+    [a, c, b]
 }
 
 /// A homogeneous pixel point `(X, Y, w)` in fixed-point pixel coordinates.
@@ -792,18 +804,14 @@ fn rasterize_tile_n<const N: usize>(setup: &Setup, tile: usize, pattern: &[(i64,
             for k in 0..3 {
                 row_start[k] += step_y[k];
             }
-            // Each edge's test is monotonic along the row, so the pixels that pass all three
-            // form one run. It starts where the last edge that rises along the row passes.
-            let skip = (0..3)
-                .filter(|&k| step_x[k] > 0 && e[k] + off_max[k] < 0)
-                .map(|k| (step_x[k] - 1 - (e[k] + off_max[k])) / step_x[k])
-                .max()
-                .unwrap_or(0);
+            let skip = run_start(&e, &off_max, &step_x);
             if skip > i64::from(x1 - x0) {
                 continue;
             }
-            for k in 0..3 {
-                e[k] += skip * step_x[k];
+            if skip > 0 {
+                for k in 0..3 {
+                    e[k] += skip * step_x[k];
+                }
             }
             let z_row = t.zy * (py as f32 - t.oy);
             let row_base = (py as usize - ty0) * TILE;
@@ -852,6 +860,25 @@ fn rasterize_tile_n<const N: usize>(setup: &Setup, tile: usize, pattern: &[(i64,
             }
         }
     }
+}
+
+/// How many pixels along a row to skip before the first one some sample of which may pass all
+/// three edges: each edge's test is monotonic along the row, so the pixels that pass all three
+/// form one run, which starts where the last edge that rises along the row passes. `e`: the
+/// edge values at the row's first pixel's corner; `off_max`: each edge's largest sample
+/// offset; `step_x`: each edge's step from one pixel to the next.
+#[inline(always)]
+fn run_start(e: &[i64; 3], off_max: &[i64; 3], step_x: &[i64; 3]) -> i64 {
+    let mut skip = 0;
+    for k in 0..3 {
+        let lead = e[k] + off_max[k];
+        // Only an edge that fails here and rises along the row can delay the run (the
+        // division, the costly part, only for such an edge).
+        if lead < 0 && step_x[k] > 0 {
+            skip = skip.max((step_x[k] - 1 - lead) / step_x[k]);
+        }
+    }
+    skip
 }
 
 /// The four-sample case of the raster loop on SSE2 (part of every x86-64 processor): the
@@ -1097,6 +1124,9 @@ fn resolve_tile(
 }
 
 /// Interpolates the triangle's attributes at pixel position (`x`, `y`) (perspective-correct).
+/// Inlined into the resolve loop: the fragment is then built where the shader reads it,
+/// without a call and a copy per shaded pixel.
+#[inline(always)]
 fn fragment(t: &ShadeTri, scene: &[Triangles], camera: &Camera, x: f64, y: f64, pixel: (u32, u32)) -> Fragment {
     let wts = t.weight.map(|[a, b, c]| (a * x + b * y + c).max(0.0));
     let sum = wts[0] + wts[1] + wts[2];
