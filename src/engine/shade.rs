@@ -1593,9 +1593,13 @@ fn nasolabial(p: Vec2) -> f32 {
     const FOLD: [Vec2; 4] = [Vec2::new(0.15, 6.94), Vec2::new(0.20, 6.82), Vec2::new(0.25, 6.70), Vec2::new(0.285, 6.58)];
     let (d, across, along) = polyline_across(p, &FOLD);
     let cheek = smoothstep(-0.01, 0.01, across);
+    let furrow = 1.3 * groove(d, 0.024 - 0.01 * cheek);
+    if cheek == 0.0 || d >= 0.2 {
+        return furrow;
+    }
     let span = smoothstep(0.0, 0.2, along) * (1.0 - smoothstep(0.75, 1.0, along));
-    let ridge = if d < 0.2 { d / 0.025 * (1.0 - d / 0.025).exp() } else { 0.0 };
-    1.3 * groove(d, 0.024 - 0.01 * cheek) + 0.8 * cheek * span * ridge
+    let ridge = d / 0.025 * (1.0 - d / 0.025).exp();
+    furrow + 0.8 * cheek * span * ridge
 }
 
 /// The nearest point of the polyline `points` to `p`: its distance, how far `p` lies across
@@ -1604,15 +1608,20 @@ fn nasolabial(p: Vec2) -> f32 {
 /// and how far along the polyline it lies (0 at its first point, 1 at its last).
 fn polyline_across(p: Vec2, points: &[Vec2]) -> (f32, f32, f32) {
     let segments = points.len().saturating_sub(1).max(1) as f32;
-    let mut best = (f32::INFINITY, 0.0, 0.0);
+    let mut best = (f32::INFINITY, 0, 0.0, p);
     for (i, w) in points.windows(2).enumerate() {
         let (nearest, t) = segment_nearest(p, w[0], w[1]);
         let d2 = (p - nearest).length_squared();
         if d2 < best.0 {
-            best = (d2, (w[1] - w[0]).normalize().perp_dot(p - nearest), (i as f32 + t) / segments);
+            best = (d2, i, t, nearest);
         }
     }
-    (best.0.sqrt(), best.1, best.2)
+    let (d2, i, t, nearest) = best;
+    let across = match points.get(i..i + 2) {
+        Some(&[a, b]) => (b - a).normalize().perp_dot(p - nearest),
+        _ => 0.0,
+    };
+    (d2.sqrt(), across, (i as f32 + t) / segments)
 }
 
 /// AU6's raised cheek: the infraorbital triangle's skin and fat bunched up into a rounded mass
