@@ -67,8 +67,8 @@ pub struct Lighting {
     pub ground: Vec3,
     pub shadow_floor: f32,
     /// The key light's size: the tangent of its angular radius seen from the face. A shadow's
-    /// edge blurs over this times the distance from the caster on each side (a soft box
-    /// about a metre across at two and a half metres: 0.15).
+    /// edge blurs over this times the distance from the caster on each side (the studio's
+    /// 0.08: a soft box about 40 cm across at two and a half metres).
     pub key_size: f32,
 }
 

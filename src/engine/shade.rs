@@ -174,27 +174,40 @@ impl ShadowMap {
     /// the caster's distance times [`Self::spread`] widens it.
     fn at(&self, position: Vec3) -> KeyShadow {
         let Some((x, y, depth)) = self.texel_point(position) else { return KeyShadow::OPEN };
-        let size = self.camera.width as usize;
-        let fine = Footprint::new(size, x, y);
+        let fine = Footprint::new(self.camera.width as usize, x, y);
         let lit = fine.lit(&self.distance, depth, FINE_BIAS);
-        let sharp = KeyShadow { reach: lit, sharp: lit, soft: 0.0 };
-        let c = COARSE as f32;
-        let coarse = Footprint::new(self.coarse_size, x / c, y / c);
-        // How far the casters are: those the fine map sees (a near caster keeps its edge sharp,
-        // and the coarse filter passes over it), else those only the coarse one sees (the lit
-        // side of a far caster's blurred edge).
-        let caster = match (lit < 1.0).then(|| fine.blockers(&self.distance, depth, FINE_BIAS)).flatten() {
-            Some(caster) if depth - caster < self.far => return sharp,
-            Some(caster) => caster,
-            None if !self.casters_near(&coarse, depth) => return sharp,
-            None => match coarse.blockers(&self.coarse, depth, self.far) {
-                Some(caster) => caster,
-                None => return sharp,
-            },
+        let Some((caster, coarse)) = self.far_caster(&fine, lit, (x, y, depth)) else {
+            return KeyShadow { reach: lit, sharp: lit, soft: 0.0 };
         };
         let soft = (((depth - caster) * self.spread - FINE_REACH) / (COARSE_REACH - FINE_REACH)).clamp(0.0, 1.0);
         let blurred = coarse.lit(&self.coarse, depth, self.far);
         KeyShadow { reach: lit + (blurred - lit) * soft, sharp: lit, soft }
+    }
+
+    /// How far from the light the casters lie that blur the edge at fine texel (`x`, `y`) and
+    /// `depth` wider than the fine filter does, with the coarse map's footprint there: those
+    /// the fine map sees (`fine`, which lets `lit` through), unless they are nearer than
+    /// [`Self::far`] (a near caster keeps its edge sharp); else those only the coarse map sees
+    /// (the lit side of a far caster's blurred edge). `None` where the edge stays sharp, before
+    /// the coarse footprint is made.
+    fn far_caster(&self, fine: &Footprint, lit: f32, (x, y, depth): (f32, f32, f32)) -> Option<(f32, Footprint)> {
+        let seen = if lit < 1.0 { fine.blockers(&self.distance, depth, FINE_BIAS) } else { None };
+        if seen.is_some_and(|caster| depth - caster < self.far) {
+            return None;
+        }
+        let coarse = self.coarse_footprint(x, y);
+        let caster = match seen {
+            Some(caster) => caster,
+            None if self.casters_near(&coarse, depth) => coarse.blockers(&self.coarse, depth, self.far)?,
+            None => return None,
+        };
+        Some((caster, coarse))
+    }
+
+    /// The coarse map's footprint round fine texel (`x`, `y`).
+    fn coarse_footprint(&self, x: f32, y: f32) -> Footprint {
+        let c = COARSE as f32;
+        Footprint::new(self.coarse_size, x / c, y / c)
     }
 
     /// The key light reaching `position` through the fine map alone (sharp edges).
@@ -2001,7 +2014,7 @@ mod tests {
         for _ in 0..20_000 {
             let position = Vec3::new(next() * 3.8 - 1.9, next() * 3.8 - 1.9, next() * 1.5);
             let (x, y, depth) = map.texel_point(position).expect("in front of the light");
-            let coarse = Footprint::new(map.coarse_size, x / COARSE as f32, y / COARSE as f32);
+            let coarse = map.coarse_footprint(x, y);
             let blocker = coarse.blockers(&map.coarse, depth, map.far);
             if !map.casters_near(&coarse, depth) {
                 assert_eq!(blocker, None, "at {position}");
