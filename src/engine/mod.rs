@@ -271,6 +271,31 @@ mod tests {
         assert!(bottom > 2.0, "the shoulders rise into the bottom rows: mean change {bottom:.2} of 255");
     }
 
+    /// The top's neckline is a line painted across the body's triangles, not a triangle's edge,
+    /// so the raster's samples do not smooth it: the shader spreads it over a pixel. Down each
+    /// column across the neck's front, the largest step from one pixel to the next is compared
+    /// with the whole change from skin to top around it: a hard edge makes it all in one step
+    /// (0.95 of it on average, and in every column over 0.85, when the edge was drawn at one
+    /// point), a smoothed one in two.
+    #[test]
+    fn the_necklines_edge_is_spread_over_a_pixel() {
+        let identity = IdentityTable::built_in().get("wm1").unwrap();
+        let image = render_still(&Expression::neutral(), identity, FrameSettings { width: 242, height: 240, threads: Some(1), ..Default::default() }).unwrap();
+        let shares: Vec<f32> = (100..146)
+            .map(|x| {
+                let column: Vec<[i32; 3]> = (190..238).map(|y| image.pixel(x, y).map(i32::from)).collect();
+                let change = |a: [i32; 3], b: [i32; 3]| (0..3).map(|c| (a[c] - b[c]).abs()).sum::<i32>() as f32;
+                let steps: Vec<f32> = column.windows(2).map(|w| change(w[0], w[1])).collect();
+                let (at, step) = steps.iter().enumerate().fold((0, 0.0f32), |best, (i, &s)| if s > best.1 { (i, s) } else { best });
+                let whole = change(column[at.saturating_sub(3)], column[(at + 4).min(column.len() - 1)]);
+                step / whole.max(1.0)
+            })
+            .collect();
+        let mean = shares.iter().sum::<f32>() / shares.len() as f32;
+        let soft = shares.iter().filter(|&&s| s < 0.85).count();
+        assert!(mean < 0.8 && 4 * soft >= 3 * shares.len(), "largest step / whole change per column: {shares:?}");
+    }
+
     /// Every catalog AU at every letter intensity, on every side it allows, renders, and
     /// changes the picture relative to neutral at E.
     #[test]

@@ -431,6 +431,11 @@ const EYE_SOCKET_OPEN: f32 = 0.8;
 /// How much darker the eyeball is toward the eye's corners, where it turns away under the lids.
 const EYE_CORNER_SHADOW: f32 = 0.4;
 
+/// How much darker the neck's skin is right at the top's neckline, in the rib's shadow, and
+/// over how many decimetres above it that shadow fades.
+const COLLAR_CONTACT_SHADOW: f32 = 0.3;
+const COLLAR_CONTACT_DM: f32 = 0.04;
+
 /// The eyeballs of the rest mesh (centre, radius; see `stimuli/face/README.md`), for the lid
 /// margins.
 const REST_EYE_CENTRE: Vec3 = Vec3::new(0.30777, 7.28414, 1.24535);
@@ -935,14 +940,35 @@ impl<'a> FaceShader<'a> {
         self.lit_hair(&look, tangent, f.view_dir, reach)
     }
 
-    /// The neck below the cut and the crew-neck top over the shoulders.
+    /// The neck below the cut and the crew-neck top over the shoulders. The neckline's edge is
+    /// spread over a pixel's width (the two sides weighted by how much of the pixel each
+    /// covers), as the raster smooths a triangle's edge: drawn at one point, it was stair-stepped.
     fn shade_body(&self, f: &Fragment) -> Vec3 {
-        let p = f.position;
-        let below = below_neckline(self.body, p);
-        if below < 0.0 {
-            let albedo = self.identity.skin * (1.0 + 0.06 * (fbm(p * 40.0) - 0.5));
-            return self.lit(f, f.normal, albedo, 0.35, 0.25, 18.0);
+        let below = below_neckline(self.body, f.position);
+        let half = 0.5 * self.pixel_width(f.position);
+        if below <= -half {
+            return self.shade_neck(f, below);
         }
+        if below >= half {
+            return self.shade_top(f, below);
+        }
+        self.shade_neck(f, below).lerp(self.shade_top(f, below), (below + half) / (2.0 * half))
+    }
+
+    /// The bare neck, `below` the neckline (negative): the skin next to the top's rib lies in
+    /// its shadow, which fades over the few millimetres the rib stands off the skin.
+    fn shade_neck(&self, f: &Fragment, below: f32) -> Vec3 {
+        let p = f.position;
+        let contact = 1.0 - COLLAR_CONTACT_SHADOW * (1.0 - smoothstep(0.0, COLLAR_CONTACT_DM, -below));
+        let albedo = self.identity.skin * (1.0 + 0.06 * (fbm(p * 40.0) - 0.5)) * contact;
+        self.lit(f, f.normal, albedo, 0.35, 0.25, 18.0)
+    }
+
+    /// The crew-neck top, `below` the neckline: a ribbed band along the neckline that rolls over
+    /// towards the neck, knit, soft folds.
+    fn shade_top(&self, f: &Fragment, below: f32) -> Vec3 {
+        let p = f.position;
+        let below = below.max(0.0);
         let rib = 1.0 - smoothstep(0.05, 0.06, below);
         let stripes = 0.5 + 0.5 * (p.x * 260.0 + p.z * 260.0).sin();
         let weave = value_noise(p * 300.0);
