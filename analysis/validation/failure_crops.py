@@ -28,6 +28,7 @@ READS = {
     "upper_lip_to_nose": [NOSE_TIP, LIP_UP_OUT],
     "bs_eyeLookDown": [IRIS["R"], IRIS["L"]],
     "bs_eyeLookUp": [IRIS["R"], IRIS["L"]],
+    "gaze_y": [IRIS["R"], IRIS["L"]] + EYE["R"] + EYE["L"],
     "eye_open": [i for side in "RL" for pair in LIDS[side][:3] for i in pair],
 }
 FRAME = {
@@ -37,6 +38,7 @@ FRAME = {
     "upper_lip_to_nose": [61, 291, 17, 6, 48, 278],
     "bs_eyeLookDown": BROW_LINE + EYE["R"] + EYE["L"],
     "bs_eyeLookUp": BROW_LINE + EYE["R"] + EYE["L"],
+    "gaze_y": BROW_LINE + EYE["R"] + EYE["L"],
     "eye_open": BROW_LINE + EYE["R"] + EYE["L"],
 }
 WIDTH = 320
