@@ -508,14 +508,17 @@ impl SkinMaps {
 }
 
 /// How a surface takes the light: wrapped diffuse (light past the terminator), a specular
-/// lobe's strength and exponent, and the share of the sky and the fill lights that reaches it
-/// (1 in the open; the key light's share is its shadow map's).
+/// lobe's strength and exponent, the share of the sky and the fill lights that reaches it
+/// (1 in the open; the key light's share is its shadow map's), and whether it is living tissue,
+/// under which scattered light carries red into a cast shadow's edge ([`key_share`]; not the
+/// top's fabric).
 #[derive(Clone, Copy, Debug)]
 struct Surface {
     wrap: f32,
     specular: f32,
     shininess: f32,
     open: f32,
+    tissue: bool,
 }
 
 /// The key light's share in each channel where `reaches` of it passes a cast shadow's edge
@@ -673,18 +676,18 @@ impl<'a> FaceShader<'a> {
     }
 
     fn lit(&self, f: &Fragment, normal: Vec3, albedo: Vec3, wrap: f32, specular: f32, shininess: f32) -> Vec3 {
-        self.lit_reached(f, normal, albedo, Surface { wrap, specular, shininess, open: 1.0 }, self.key_reach(f))
+        self.lit_reached(f, normal, albedo, Surface { wrap, specular, shininess, open: 1.0, tissue: true }, self.key_reach(f))
     }
 
     /// [`Self::lit`] with the fraction of the key light reaching `f` already known.
     fn lit_reached(&self, f: &Fragment, normal: Vec3, albedo: Vec3, surface: Surface, key_reaches: f32) -> Vec3 {
-        let Surface { wrap, specular, shininess, open } = surface;
+        let Surface { wrap, specular, shininess, open, tissue } = surface;
         let view = f.view_dir;
         let Lighting { lights, sky, ground, shadow_floor, .. } = &self.lighting;
         let ambient = sky.lerp(*ground, (0.5 - 0.5 * normal.y).clamp(0.0, 1.0));
         let mut colour = albedo * ambient * open;
         for (n, light) in lights.iter().enumerate() {
-            let reach = if n == 0 { key_share(shadow_floor + (1.0 - shadow_floor) * key_reaches, key_reaches, wrap) } else { Vec3::splat(open) };
+            let reach = if n == 0 { key_share(shadow_floor + (1.0 - shadow_floor) * key_reaches, key_reaches, if tissue { wrap } else { 0.0 }) } else { Vec3::splat(open) };
             let n_dot_l = normal.dot(light.direction);
             // Wrapped diffuse lets light bleed past the terminator, red most (subsurface look).
             let wrapped = Vec3::new(
@@ -784,7 +787,7 @@ impl<'a> FaceShader<'a> {
         let shininess = 16.0 + 24.0 * lips + 48.0 * wet.min(1.0);
         let reach = self.key_reach(f);
         let open = self.hair_skin_value(f, |hair| &hair.skin_open, 1.0);
-        let surface = Surface { wrap: 0.35 * (1.0 - hair), specular, shininess, open };
+        let surface = Surface { wrap: 0.35 * (1.0 - hair), specular, shininess, open, tissue: true };
         let mut colour = self.lit_reached(f, normal, albedo, surface, reach);
         colour += self.subsurface_bleed(normal, albedo, reach) * (1.0 - hair);
         if let Some(paint) = scalp.filter(|_| hair > 0.85 && self.hair.is_some() && self.combed()) {
@@ -993,7 +996,8 @@ impl<'a> FaceShader<'a> {
             normal = (normal + Vec3::new(0.0, 0.35 * (1.0 - 2.0 * smoothstep(0.0, 0.06, below)), 0.0) * rib).normalize();
         }
         let texture = 0.93 + 0.07 * weave - 0.08 * rib * stripes;
-        self.lit(f, normal, self.identity.top * texture, 0.25, 0.04, 8.0)
+        let fabric = Surface { wrap: 0.25, specular: 0.04, shininess: 8.0, open: 1.0, tissue: false };
+        self.lit_reached(f, normal, self.identity.top * texture, fabric, self.key_reach(f))
     }
 
     fn shade_eye(&self, f: &Fragment, side: usize) -> Vec3 {
@@ -1023,7 +1027,7 @@ impl<'a> FaceShader<'a> {
         let up = d.dot(eye.up) - LID_RAISE_SHADOW * self.lid_raise(side);
         let lid_shadow = (1.0 - 0.6 * smoothstep(0.0, 0.45, up)) * (1.0 - EYE_CORNER_SHADOW * smoothstep(0.55, 1.0, d.dot(right).abs()));
         // The socket, lids and brow leave the eyeball a narrow view of the sky and fill lights.
-        let surface = Surface { wrap: 0.1, specular: 0.0, shininess: 1.0, open: EYE_SOCKET_OPEN };
+        let surface = Surface { wrap: 0.1, specular: 0.0, shininess: 1.0, open: EYE_SOCKET_OPEN, tissue: true };
         let colour = self.lit_reached(f, d, albedo * lid_shadow, surface, self.key_reach(f));
         colour + self.cornea_highlight(d, f.view_dir) * self.interpolate(&self.key_light.reach, f)
     }
@@ -1060,7 +1064,7 @@ impl<'a> FaceShader<'a> {
     fn shade_teeth(&self, f: &Fragment) -> Vec3 {
         let rest = self.rest(f);
         let reach = 0.45 + 0.55 * self.key_reach(f);
-        let surface = Surface { wrap: 0.2, specular: 0.5, shininess: 40.0, open: 1.0 };
+        let surface = Surface { wrap: 0.2, specular: 0.5, shininess: 40.0, open: 1.0, tissue: true };
         // The arch is a few flat facets: its normals turn half toward the viewer, so that a
         // tooth reads as one rounded surface, not as a lit and a dark facet.
         let normal = (f.normal + f.view_dir).normalize_or(f.normal);
@@ -1109,7 +1113,7 @@ impl<'a> FaceShader<'a> {
         let paint = |field: usize| mix(&|v| self.maps.vertices[v][field]);
         let mut albedo = self.identity.skin * paint(SkinVertex::MOTTLE);
         albedo = albedo.lerp(albedo * Vec3::new(0.84, 0.8, 0.84), 0.6 * paint(SkinVertex::PERIORBITAL));
-        let surface = Surface { wrap: 0.35, specular: 0.16, shininess: 16.0, open: 1.0 };
+        let surface = Surface { wrap: 0.35, specular: 0.16, shininess: 16.0, open: 1.0, tissue: true };
         self.lit_reached(f, normal, albedo, surface, reach)
     }
 
