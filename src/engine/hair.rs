@@ -42,6 +42,8 @@ use super::asset::{FaceModel, Part};
 use super::identity::{HairStyle, HairTexture, Identity, Parting};
 use super::pose::Posed;
 
+pub(crate) mod beard;
+
 /// Where the camera looks from (the cards turn their face to it).
 const VIEW_FROM: Vec3 = Vec3::new(0.0, 7.4, 11.0);
 
@@ -69,10 +71,8 @@ pub struct HairModel {
     pub strand_grey: Vec<f32>,
     /// Triangles per strand (every strand has the same number).
     pub triangles_per_strand: u32,
-    /// Per vertex: the skin vertex nearest to the strand's root, and how much of that root's
-    /// local movement the vertex follows (1 at the root, fading along the strand).
-    root_vertex: Vec<u32>,
-    root_follow: Vec<f32>,
+    /// Per vertex: whose local movement (beyond the head's rigid motion) it follows.
+    follows: Vec<Follow>,
     /// The centre of the skull (of [`HEAD_CENTRE`]) for this person.
     skull_centre: Vec3,
     /// Per row of vertices (`2k`, `2k + 1`): the strand point, in the head map's space, and the
@@ -89,6 +89,17 @@ pub struct HairModel {
     pub skin_open: Vec<f32>,
 }
 
+/// Whose local movement (beyond the head's rigid motion) a card vertex follows.
+#[derive(Clone, Copy)]
+enum Follow {
+    /// The skin vertex nearest to its strand's root, by `share` of its movement (1 at the
+    /// root, fading along a scalp strand).
+    Root { vertex: u32, share: f32 },
+    /// The skin under it (a beard's card): the point of the skin triangle `corners` with
+    /// barycentric `weights`, so that the card stays on the skin as the face moves.
+    Skin { corners: [u32; 3], weights: Vec3 },
+}
+
 /// One row of a card: where the strand passes, how wide the card is, and whether it lies
 /// along the scalp near the head (bun cards do not).
 #[derive(Clone, Copy)]
@@ -96,6 +107,9 @@ struct CardRow {
     point: Vec3,
     half: f32,
     on_head: bool,
+    /// The skin's normal under a beard's card, which lies flat along the skin whatever the
+    /// camera (`None` for the scalp's cards).
+    lies_on: Option<Vec3>,
 }
 
 /// How far (decimetres) the camera may move in the head's frame before the cards are turned
@@ -754,8 +768,7 @@ impl HairModel {
             strand_tone: Vec::new(),
             strand_grey: Vec::new(),
             triangles_per_strand: 2 * shape.segments as u32,
-            root_vertex: Vec::new(),
-            root_follow: Vec::new(),
+            follows: Vec::new(),
             skull_centre: HEAD_CENTRE + offset,
             rows: Vec::new(),
             head: HeadMap::new(&aligned, &ears, shape.hangs_over_ears()),
@@ -767,15 +780,16 @@ impl HairModel {
         for (n, root) in roots.iter().enumerate() {
             let Some(points) = grow(root, n as u32, identity, &shape, &hair.head) else { continue };
             let card = Card { width: shape.width * (0.7 + 0.6 * hash01(n as u32, 7, 1)), tip_from: tip_from(n as u32), on_head: true, combed };
-            hair.add_card(&points, root.vertex, card);
+            hair.add_card(&points, root.vertex, card, None);
             hair.strand_tone.push(lock_tone(root.rest, n as u32));
             hair.strand_grey.push(greying(identity.hair_grey, root.rest, n as u32));
         }
         if let (HairStyle::Bun, Some(centre)) = (identity.hair_style, shape.gather) {
             hair.add_bun(centre, &shape, roots.first().map_or(0, |r| r.vertex), identity.hair_grey);
         }
-        hair.skin_cover = skin_under_cards(&hair.rows, hair.rows_per_card(), &aligned, &ears, &hair.head);
         let normals = super::pose::vertex_normals(model, neutral);
+        hair.add_beard(model, identity, &aligned, &normals[..skin_end]);
+        hair.skin_cover = skin_under_cards(&hair.rows, hair.rows_per_card(), &aligned, &ears, &hair.head);
         hair.skin_open = skin_open_under_cards(&hair.rows, hair.rows_per_card(), &aligned, &normals);
         for p in &mut hair.positions {
             *p += offset;
@@ -786,8 +800,10 @@ impl HairModel {
     /// Appends one strand's card: two vertices per point, narrowing to a point at the tip of
     /// the strand as drawn (a strand that ended early, its remaining points collapsed, tapers
     /// to where it ends). A card turns its face to the camera, except that near the `head` it
-    /// lies along the scalp (never across it, into the head).
-    fn add_card(&mut self, points: &[Vec3], root_vertex: u32, card: Card) {
+    /// lies along the scalp (never across it, into the head). A beard's card (`skin`: the skin
+    /// under each point) lies flat along the skin and each of its rows moves with the skin
+    /// under it.
+    fn add_card(&mut self, points: &[Vec3], root_vertex: u32, card: Card, skin: Option<&[beard::Under]>) {
         let base = self.positions.len() as u32;
         let last = points.len() - 1;
         let along = drawn_share(points);
@@ -800,7 +816,12 @@ impl HairModel {
             let tangent = forward.try_normalize().or(back.try_normalize()).unwrap_or(previous);
             previous = tangent;
             let t = k as f32 / last as f32;
-            let row = CardRow { point: p, half: card.half_width(along[k]), on_head: card.on_head };
+            let lies_on = skin.map(|under| under[k].normal);
+            let follow = match skin {
+                Some(under) => Follow::Skin { corners: under[k].corners, weights: under[k].weights },
+                None => Follow::Root { vertex: root_vertex, share: (1.0 - t * 2.0).max(0.0) },
+            };
+            let row = CardRow { point: p, half: card.half_width(along[k]), on_head: card.on_head, lies_on };
             let across = self.across(row, tangent, VIEW_FROM);
             self.rows.push(row);
             let lit_along = self.lit_along(p, tangent, card.combed);
@@ -808,8 +829,7 @@ impl HairModel {
                 self.positions.push(p + across * s);
                 self.tangents.push(lit_along);
                 self.uvs.push(Vec2::new(u, along[k]));
-                self.root_vertex.push(root_vertex);
-                self.root_follow.push((1.0 - t * 2.0).max(0.0));
+                self.follows.push(follow);
             }
         }
         for k in 0..last as u32 {
@@ -817,6 +837,33 @@ impl HairModel {
             self.triangles.push([a, c, d]);
             self.triangles.push([a, d, b]);
         }
+    }
+
+    /// Grows `identity`'s beard (none when its length is 0) on the skin `skin` (head map's
+    /// space) whose vertex normals are `normals`: cards as long in rows as the scalp's.
+    fn add_beard(&mut self, model: &FaceModel, identity: &Identity, skin: &[Vec3], normals: &[Vec3]) {
+        if identity.beard <= 0.0 {
+            return;
+        }
+        let rows = self.rows_per_card();
+        let surface = beard::Skin::new(model, skin, normals);
+        let centres = surface.centres();
+        let grid = VertexGrid::new(&centres, beard::SKIN_REACH);
+        let first = self.strand_tone.len() as u32;
+        for (k, beard_root) in beard::roots(model, skin).iter().enumerate() {
+            let (n, root) = (first + k as u32, &beard_root.root);
+            let (points, under) = beard::grow(beard_root, n, identity.beard, rows, &surface, &grid);
+            let card = Card { width: beard::WIDTH * (0.7 + 0.6 * hash01(n, 7, 1)), tip_from: tip_from(n), on_head: true, combed: None };
+            self.add_card(&points, root.vertex, card, Some(&under));
+            self.strand_tone.push(lock_tone(root.rest, n));
+            self.strand_grey.push(greying(identity.hair_grey, root.rest, n));
+        }
+    }
+
+    /// The vertices of the beard's cards.
+    #[cfg(test)]
+    fn beard_vertices(&self) -> Vec<usize> {
+        self.rows.iter().enumerate().filter(|(_, row)| row.lies_on.is_some()).flat_map(|(k, _)| [2 * k, 2 * k + 1]).collect()
     }
 
     /// The direction a card at `p` running along `tangent` is lit along: near the scalp, mostly
@@ -835,7 +882,11 @@ impl HairModel {
     /// Half the card's width across `row`, turned to face `eye` (both in the head map's space).
     fn across(&self, row: CardRow, tangent: Vec3, eye: Vec3) -> Vec3 {
         let to_eye = (eye - row.point).normalize();
-        let side = if row.on_head { self.head.card_side(row.point, tangent, to_eye) } else { tangent.cross(to_eye).normalize_or(Vec3::X) };
+        let side = match row.lies_on {
+            Some(normal) => tangent.cross(normal).normalize_or(Vec3::X),
+            None if row.on_head => self.head.card_side(row.point, tangent, to_eye),
+            None => tangent.cross(to_eye).normalize_or(Vec3::X),
+        };
         side * row.half
     }
 
@@ -872,7 +923,7 @@ impl HairModel {
                     ball + (u * a.cos() + v * a.sin()) * r
                 })
                 .collect();
-            self.add_card(&points, root_vertex, Card { width: shape.width * 1.2, tip_from: tip_from(n), on_head: false, combed: None });
+            self.add_card(&points, root_vertex, Card { width: shape.width * 1.2, tip_from: tip_from(n), on_head: false, combed: None }, None);
             self.strand_tone.push(lock_tone(ball, n));
             self.strand_grey.push(greying(grey, ball, n));
         }
@@ -917,16 +968,16 @@ impl HairModel {
         // The camera, seen from the neutral head: the cards turn to face it there.
         let eye = o0 + rotation.transpose() * (VIEW_FROM + self.offset - o1);
         let facing = self.facing(eye);
+        let local = |v: u32| posed.positions[v as usize] - moved(posed.neutral[v as usize]);
         let positions = facing
             .iter()
-            .zip(self.root_vertex.iter().zip(&self.root_follow))
-            .map(|(&p, (&v, &follow))| {
+            .zip(&self.follows)
+            .map(|(&p, follow)| {
                 let rigid = moved(p);
-                if follow > 0.0 {
-                    let local = posed.positions[v as usize] - moved(posed.neutral[v as usize]);
-                    rigid + local * follow
-                } else {
-                    rigid
+                match *follow {
+                    Follow::Root { share, .. } if share <= 0.0 => rigid,
+                    Follow::Root { vertex, share } => rigid + local(vertex) * share,
+                    Follow::Skin { corners: [a, b, c], weights: w } => rigid + local(a) * w.x + local(b) * w.y + local(c) * w.z,
                 }
             })
             .collect();
@@ -1566,7 +1617,7 @@ mod tests {
         // that hang free (away from the scalp and moved rigidly with the head).
         let lean = |positions: &[Vec3], eye: Vec3| {
             let free = hair.rows.iter().enumerate().filter(|(k, row)| {
-                hair.root_follow[2 * k] == 0.0 && hair.head.height(row.point) > 0.1
+                matches!(hair.follows[2 * k], Follow::Root { share, .. } if share == 0.0) && hair.head.height(row.point) > 0.1
             });
             let leans: Vec<f32> = free.map(|(k, _)| {
                 let (a, b) = (positions[2 * k], positions[2 * k + 1]);
@@ -2090,7 +2141,7 @@ mod tests {
         let v = (0..skin.len()).min_by(|&a, &b| skin[a].distance(Vec3::new(0.6, 7.2, 1.2)).total_cmp(&skin[b].distance(Vec3::new(0.6, 7.2, 1.2)))).unwrap();
         let (n, along) = (normals[v], normals[v].cross(Vec3::Y).normalize());
         let strip = |side: f32| -> Vec<CardRow> {
-            (0..=6).map(|k| CardRow { point: skin[v] + n * (0.1 * side) + along * (0.1 * (k as f32 - 3.0)), half: 0.02, on_head: true }).collect()
+            (0..=6).map(|k| CardRow { point: skin[v] + n * (0.1 * side) + along * (0.1 * (k as f32 - 3.0)), half: 0.02, on_head: true, lies_on: None }).collect()
         };
         let (w, l, r) = (0.04f32, 0.6f32, 0.1f32);
         let expected = w * l / (r * (r * r + 0.25 * l * l).sqrt()) / std::f32::consts::PI;

@@ -29,6 +29,9 @@ const RESTING_FACE: [(&str, f32); 2] = [("identity/eyebrows/eyebrows-angle-down"
 /// The largest identity file read (a few hundred people).
 pub const MAX_FILE_BYTES: usize = 1 << 20;
 
+/// The longest beard an identity may have (millimetres): a short full beard, lying on the face.
+pub const MAX_BEARD_MM: f32 = 20.0;
+
 /// Problems with an identity table.
 #[derive(Debug, thiserror::Error)]
 pub enum IdentityError {
@@ -166,6 +169,9 @@ struct RawIdentity {
     stubble: f32,
     #[serde(default)]
     hairline: f32,
+    /// Millimetres.
+    #[serde(default)]
+    beard: f32,
     #[serde(default)]
     hair_style: Option<HairStyle>,
     #[serde(default)]
@@ -204,6 +210,8 @@ pub struct Identity {
     pub top: Vec3,
     pub stubble: f32,
     pub hairline: f32,
+    /// The length of a beard's hairs (decimetres; 0 = no beard, the stubble alone).
+    pub beard: f32,
     pub hair_style: HairStyle,
     pub hair_texture: HairTexture,
     /// Fraction of grey hairs, 0..1.
@@ -365,7 +373,13 @@ fn validate(raw: RawIdentity, model: &FaceModel, line_of: &dyn Fn(&str) -> usize
             return Err(fail("shape", format!("shape weight {weight} for \"{name}\" is outside -2..2")));
         }
     }
-    for (field, value, range) in [("stubble", raw.stubble, 0.0..=1.0), ("hairline", raw.hairline, -0.3..=0.3), ("hair_grey", raw.hair_grey.unwrap_or(0.0), 0.0..=1.0)] {
+    let ranges = [
+        ("stubble", raw.stubble, 0.0..=1.0),
+        ("hairline", raw.hairline, -0.3..=0.3),
+        ("beard", raw.beard, 0.0..=MAX_BEARD_MM),
+        ("hair_grey", raw.hair_grey.unwrap_or(0.0), 0.0..=1.0),
+    ];
+    for (field, value, range) in ranges {
         if !range.contains(&value) {
             return Err(fail(field, format!("{value} is outside {}..{}", range.start(), range.end())));
         }
@@ -395,6 +409,7 @@ fn validate(raw: RawIdentity, model: &FaceModel, line_of: &dyn Fn(&str) -> usize
         ancestry,
         stubble: raw.stubble,
         hairline: raw.hairline,
+        beard: raw.beard / 100.0,
         shape: raw.shape,
     })
 }
@@ -496,6 +511,17 @@ mod tests {
         let style = format!("{GOOD}hair_style = \"mohawk\"\n");
         let err = IdentityTable::from_toml(&style, FaceModel::embedded()).unwrap_err().to_string();
         assert!(err.contains("mohawk") && err.contains("line 11"), "{err}");
+        let long_beard = format!("{GOOD}beard = 25\n");
+        let err = IdentityTable::from_toml(&long_beard, FaceModel::embedded()).unwrap_err().to_string();
+        assert!(err.contains("`beard`") && err.contains("line 11") && err.contains("25 is outside 0..20"), "{err}");
+    }
+
+    /// A beard is written in millimetres and kept in decimetres; none by default.
+    #[test]
+    fn a_beard_is_read_in_millimetres() {
+        let table = IdentityTable::from_toml(&format!("{GOOD}beard = 8\n"), FaceModel::embedded()).unwrap();
+        assert!((table.get("x").unwrap().beard - 0.08).abs() < 1e-7);
+        assert_eq!(IdentityTable::from_toml(GOOD, FaceModel::embedded()).unwrap().get("x").unwrap().beard, 0.0);
     }
 
     #[test]

@@ -463,9 +463,9 @@ struct SkinMaps {
 impl SkinMaps {
     /// The maps of `identity`, computed once per person and shared by every frame.
     fn cached(model: &FaceModel, identity: &Identity) -> Arc<SkinMaps> {
-        type Key = (String, u32, u32);
+        type Key = (String, u32, u32, u32);
         static CACHE: OnceLock<Mutex<BTreeMap<Key, Arc<SkinMaps>>>> = OnceLock::new();
-        let key = (identity.id.clone(), identity.stubble.to_bits(), identity.hairline.to_bits());
+        let key = (identity.id.clone(), identity.stubble.to_bits(), identity.hairline.to_bits(), identity.beard.to_bits());
         let made: Result<_, std::convert::Infallible> = super::cached(CACHE.get_or_init(Default::default), key, || Ok(SkinMaps::new(model, identity)));
         made.unwrap_or_else(|never| match never {})
     }
@@ -474,6 +474,8 @@ impl SkinMaps {
         let skin = &model.rest[..model.part(Part::Skin).vertices.end as usize];
         let regions = regions(model);
         let hairline = Hairline::of(identity);
+        // Under a beard the skin is dark with the hairs' roots, whatever the stubble.
+        let roots = |p: Vec3| if identity.beard > 0.0 { BEARD_ROOTS * super::hair::beard::grown_mask(p) } else { 0.0 };
         let vertices = skin
             .iter()
             .enumerate()
@@ -483,7 +485,7 @@ impl SkinMaps {
                     mottle: 1.0 + 0.06 * (fbm(p * 40.0) - 0.5),
                     cheek: blob(Vec2::new(p.x.abs(), p.y), Vec2::new(0.38, 6.95), Vec2::new(0.14, 0.12)),
                     oily: blob(Vec2::new(p.x, p.y), Vec2::new(0.0, 7.3), Vec2::new(0.12, 0.7)),
-                    beard: beard_mask(p) * identity.stubble,
+                    beard: (beard_mask(p) * identity.stubble).max(roots(p)),
                     hair: hair_mask(p, hairline).max(SCALP_FRINGE_SHARE * hair_mask(p, hairline.lowered(SCALP_FRINGE))) * (1.0 - regions.ears[i]),
                     lips: regions.lips[i],
                     inside_mouth: regions.inside_mouth[i],
@@ -755,7 +757,14 @@ impl<'a> FaceShader<'a> {
         let beard = painted.beard * (1.0 - lips);
         if beard > 0.0 {
             let dots = smoothstep(0.4, 0.8, seen_over(value_noise(rest * 260.0), 260.0 * pixel));
-            albedo = albedo.lerp(identity.hair * 0.6 + identity.skin * 0.25, beard * (0.35 + 0.5 * dots));
+            // Under a beard's cards the roots stand close, greying as the beard does: little
+            // skin shows between them.
+            let (hair, least, dotted) = if identity.beard > 0.0 {
+                (hair_pigment(identity, identity.hair_grey * 0.35), 0.8, 0.2)
+            } else {
+                (identity.hair, 0.35, 0.5)
+            };
+            albedo = albedo.lerp(hair * 0.6 + identity.skin * 0.25, beard * (least + dotted * dots));
         }
         let hair = painted.hair;
         // The painted scalp, worked out once: its albedo here, its lighting as hair below.
@@ -1411,8 +1420,11 @@ fn hair_mask(rest: Vec3, hairline: Hairline) -> f32 {
     hairline.mask(rest, value_noise(rest * 90.0))
 }
 
-/// Beard shadow: jaw, chin and upper lip, below the cheeks.
-fn beard_mask(rest: Vec3) -> f32 {
+/// The stubble painted under a beard's cards (0..1, as an identity's `stubble`).
+const BEARD_ROOTS: f32 = 1.0;
+
+/// Beard shadow: jaw, chin and upper lip, below the cheeks; the beard's cards grow here too.
+pub(crate) fn beard_mask(rest: Vec3) -> f32 {
     let x = rest.x.abs();
     if rest.z < 0.6 {
         return 0.0;
