@@ -256,7 +256,7 @@ enum StimuliCommand {
 #[derive(Subcommand)]
 enum IdentitiesCommand {
     /// Generate a new person from the CC0 shape targets and append it to an identity file.
-    #[command(after_help = "Example:\n  facslab identities new --sex M --age 52 --ancestry middle-eastern --seed 3 -o people.toml\n\nAncestries: african, east-asian, south-asian, hispanic, middle-eastern, european.\nThe same options give the same person; another --seed gives another person.")]
+    #[command(after_help = "Examples:\n  facslab identities new --sex M --age 52 --ancestry middle-eastern --seed 3 -o people.toml\n  facslab identities new --sex M --age 40 --ancestry hispanic --seed 5 --beard 8 -o people.toml\n\nAncestries: african, east-asian, south-asian, hispanic, middle-eastern, european.\nThe same options give the same person; another --seed gives another person.")]
     New {
         /// F or M.
         #[arg(long, value_parser = parse_sex)]
@@ -272,6 +272,9 @@ enum IdentitiesCommand {
         /// The new person's id [default: ancestry code, f/m and the seed, e.g. eaf7].
         #[arg(long)]
         id: Option<String>,
+        /// A beard, its hairs this many millimetres long (0..=20; 0 = none).
+        #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=20))]
+        beard: u32,
         /// The identity file to create or append to.
         #[arg(short, long)]
         output: PathBuf,
@@ -400,8 +403,8 @@ fn dispatch(command: Command) -> anyhow::Result<()> {
             }
             Ok(())
         }
-        Command::Identities { command: Some(IdentitiesCommand::New { sex, age, ancestry, seed, id, output }), .. } => {
-            let request = crate::engine::people::PersonRequest { sex, age, origin: ancestry, seed, id };
+        Command::Identities { command: Some(IdentitiesCommand::New { sex, age, ancestry, seed, id, beard, output }), .. } => {
+            let request = crate::engine::people::PersonRequest { sex, age, origin: ancestry, seed, id, beard_mm: beard };
             new_identity(&request, &output)
         }
         Command::Identities { command: None, identities } => {

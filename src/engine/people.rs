@@ -139,6 +139,8 @@ pub struct PersonRequest {
     pub seed: u64,
     /// The id; by default built from ancestry, sex and seed (e.g. `eaf7`).
     pub id: Option<String>,
+    /// A beard's length in millimetres (0: none); the rest of the person is the same either way.
+    pub beard_mm: u32,
 }
 
 impl PersonRequest {
@@ -283,6 +285,9 @@ pub fn generate(request: &PersonRequest) -> String {
     let _ = writeln!(out, "hair = \"{}\"", hex(base_hair.map(f32::from)));
     let _ = writeln!(out, "lips = \"{}\"", hex(lips));
     let _ = writeln!(out, "stubble = {}", round(stubble));
+    if request.beard_mm > 0 {
+        let _ = writeln!(out, "beard = {}", request.beard_mm);
+    }
     let _ = writeln!(out, "hairline = {}", round(hairline));
     let _ = writeln!(out, "hair_style = \"{style}\"");
     let _ = writeln!(out, "hair_texture = \"{texture}\"");
@@ -301,7 +306,20 @@ mod tests {
     use crate::engine::identity::IdentityTable;
 
     fn request(origin: Origin, sex: Sex, seed: u64) -> PersonRequest {
-        PersonRequest { sex, age: 40, origin, seed, id: None }
+        PersonRequest { sex, age: 40, origin, seed, id: None, beard_mm: 0 }
+    }
+
+    /// A beard asked for is written into the person's block, which reads back with it; the
+    /// rest of the block is the same as without one.
+    #[test]
+    fn a_generated_person_may_have_a_beard() {
+        let plain = generate(&request(Origin::MiddleEastern, Sex::Male, 3));
+        let bearded = generate(&PersonRequest { beard_mm: 8, ..request(Origin::MiddleEastern, Sex::Male, 3) });
+        let without: Vec<&str> = bearded.lines().filter(|l| !l.starts_with("beard = ")).collect();
+        assert_eq!(without, plain.lines().collect::<Vec<_>>());
+        assert!(!plain.contains("beard = "));
+        let table = IdentityTable::from_toml(&bearded, FaceModel::embedded()).unwrap();
+        assert!((table.iter().next().unwrap().beard - 0.08).abs() < 1e-7);
     }
 
     #[test]

@@ -87,21 +87,24 @@ fn identities_lists_at_least_24_people() {
     assert!(String::from_utf8_lossy(&output.stdout).lines().count() >= 24);
 }
 
-/// A person generated into a file renders from that file, without rebuilding facslab; a damaged
-/// file fails with the line and the field named.
+/// A person generated into a file (one with a beard) renders from that file, without rebuilding
+/// facslab; a damaged file fails with the line and the field named.
 #[test]
 fn people_from_a_file_render_and_bad_files_are_named() {
     let dir = tempfile::tempdir().unwrap();
     let new = ["identities", "new", "--sex", "F", "--age", "44", "--ancestry", "south-asian", "--seed", "5", "-o", "people.toml"];
     let output = facslab_ok(dir.path(), &new);
     assert_eq!(String::from_utf8_lossy(&output.stdout).trim(), "saf5");
-    facslab_ok(dir.path(), &["identities", "new", "--sex", "M", "--age", "61", "--ancestry", "hispanic", "--seed", "5", "-o", "people.toml"]);
+    facslab_ok(dir.path(), &["identities", "new", "--sex", "M", "--age", "61", "--ancestry", "hispanic", "--seed", "5", "--beard", "8", "-o", "people.toml"]);
+    let too_long = facslab(dir.path(), &["identities", "new", "--sex", "M", "--age", "61", "--ancestry", "hispanic", "--beard", "30", "-o", "more.toml"]);
+    assert!(!too_long.status.success() && stderr(&too_long).contains("--beard"), "{}", stderr(&too_long));
     let listed = facslab_ok(dir.path(), &["identities", "--identities", "people.toml"]);
     let text = String::from_utf8_lossy(&listed.stdout);
     assert!(text.contains("saf5") && text.contains("hlm5") && text.contains("wm1"), "{text}");
     facslab_ok(dir.path(), &["render", "12", "--identities", "people.toml", "--identity", "hlm5", "-o", "p.png", "--size", "64x64"]);
     assert!(dir.path().join("p.png").exists());
     let people = std::fs::read_to_string(dir.path().join("people.toml")).unwrap();
+    assert!(people.contains("\nbeard = 8\n"), "{people}");
     let broken = people.replacen("age = 61", "age = 610", 1);
     std::fs::write(dir.path().join("bad.toml"), &broken).unwrap();
     let line = 1 + broken.lines().position(|l| l == "age = 610").unwrap();
