@@ -40,7 +40,7 @@ const TRIMMED: f32 = 0.7;
 /// second height down to the first.
 const NECKLINE: (f32, f32) = (6.1, 6.22);
 /// The least beard mask a root is grown at, and the most lip red under it.
-const LEAST_MASK: f32 = 0.25;
+const LEAST_MASK: f32 = 0.4;
 const MOST_LIP: f32 = 0.05;
 /// The least cosine between the skin a card's point lies on and the skin its previous point
 /// lay on (about 70 degrees: the jaw's edge turns less than that from one point to the next).
