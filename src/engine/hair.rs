@@ -27,6 +27,9 @@
 //! the back. Hanging hair is cut to a line (strands rooted low at the back and sides grow
 //! longer) and fans out over the back below the ears, so it fills the space beside the neck.
 //!
+//! A beard ([`beard`], when the identity has one) is grown after the scalp's cards, as cards
+//! of the same number of rows that lie along the face's skin and move with it.
+//!
 //! Per frame, [`Hair::seen_from`] gives the camera the cards with those behind the skull
 //! dropped, and [`Hair::shadow_casters`] gives the key light's shadow map the same with fewer
 //! rows where a card runs straight (within a texel of the map).
@@ -1152,24 +1155,37 @@ fn sample_roots(model: &FaceModel, identity: &Identity, neutral: &[Vec3], shape:
         if mask < 0.3 {
             continue;
         }
-        let [pa, pb, pc] = [a, b, c].map(|v| neutral[v as usize]);
-        let area = 0.5 * (pb - pa).cross(pc - pa).length();
-        let expected = area * shape.density * mask * mask;
-        let count = expected.floor() as u32 + u32::from(hash01(t as u32, 1, 0) < expected.fract());
-        let normal = (pb - pa).cross(pc - pa).normalize_or(Vec3::Y);
-        for k in 0..count {
-            let (mut u, mut v) = (hash01(t as u32, k, 2), hash01(t as u32, k, 3));
-            if u + v > 1.0 {
-                (u, v) = (1.0 - u, 1.0 - v);
-            }
-            let w = 1.0 - u - v;
-            let position = pa * w + pb * u + pc * v;
-            let rest = ra * w + rb * u + rc * v;
-            let vertex = if w >= u && w >= v { a } else if u >= v { b } else { c };
-            roots.push(to_parting_edge(Root { position, normal, rest, vertex }, parting));
-        }
+        let on_triangle = roots_on_triangle(model, neutral, t, shape.density * mask * mask, SCALP_SALT, Vec3::Y);
+        roots.extend(on_triangle.map(|root| to_parting_edge(root, parting)));
     }
     roots
+}
+
+/// The first of the hash salts a kind of root draws with (its count, then its two barycentric
+/// coordinates), so that the scalp's roots and a beard's lie at points of their own.
+const SCALP_SALT: u32 = 1;
+
+/// The roots on skin triangle `t`, `per_area` of them per square decimetre on average (the
+/// fraction of one drawn by a hash): fixed hashed points of the triangle, each with its
+/// position on `neutral`, the triangle's normal there (`up` where it has none), its rest
+/// position and its nearest corner. `salt` keeps one kind of root's hashes apart from another's.
+fn roots_on_triangle(model: &FaceModel, neutral: &[Vec3], t: usize, per_area: f32, salt: u32, up: Vec3) -> impl Iterator<Item = Root> {
+    let [a, b, c] = model.part(Part::Skin).triangles[t];
+    let [ra, rb, rc] = [a, b, c].map(|v| model.rest[v as usize]);
+    let [pa, pb, pc] = [a, b, c].map(|v| neutral[v as usize]);
+    let t = t as u32;
+    let expected = 0.5 * (pb - pa).cross(pc - pa).length() * per_area;
+    let count = expected.floor() as u32 + u32::from(hash01(t, salt, 0) < expected.fract());
+    let normal = (pb - pa).cross(pc - pa).normalize_or(up);
+    (0..count).map(move |k| {
+        let (mut u, mut v) = (hash01(t, k, salt + 1), hash01(t, k, salt + 2));
+        if u + v > 1.0 {
+            (u, v) = (1.0 - u, 1.0 - v);
+        }
+        let w = 1.0 - u - v;
+        let vertex = if w >= u && w >= v { a } else if u >= v { b } else { c };
+        Root { position: pa * w + pb * u + pc * v, normal, rest: ra * w + rb * u + rc * v, vertex }
+    })
 }
 
 /// Half-width (decimetres, base mesh) of the line of scalp where straight or wavy hair parts

@@ -6,16 +6,18 @@
 //!
 //! In: the face model, the person's beard length, the neutral skin (in the head map's space,
 //! as the scalp's roots are) and its vertex normals. Out: the roots ([`roots`]) and each
-//! strand's points ([`grow`]), which the hair model draws as cards like the scalp's, with the
-//! hair's colour, greying and lighting. A beard's card moves with its root's skin all along
-//! (the jaw opens under it), not only near the root as a scalp strand does.
-//! Invariant: every point of a card lies at least [`CLEARANCE`] outside the skin under it at
-//! rest (test `engine::hair::beard::tests::beard_cards_lie_outside_the_skin`); the same
-//! person gives the same cards.
+//! strand's points with the skin under each ([`grow`]), which the hair model draws as cards
+//! like the scalp's, with the hair's colour, greying and lighting, each row moving with the
+//! point of the skin under it (the jaw opens and the lips stretch under the beard), where a
+//! scalp strand moves with its root only near the root.
+//! Invariants: each row's centre is grown [`CLEARANCE`] out from the closest point of the
+//! skin, and no corner of a card lies more than 0.25 mm inside the skin at rest nor 1.25 mm
+//! as the face moves (test `engine::hair::beard::tests::beard_cards_lie_outside_the_skin`);
+//! the same person gives the same cards.
 
 use glam::Vec3;
 
-use super::{hash01, smooth, Root, VertexGrid};
+use super::{hash01, roots_on_triangle, smooth, Root, VertexGrid};
 use crate::engine::asset::{FaceModel, Part};
 use crate::engine::shade::beard_mask;
 
@@ -39,6 +41,8 @@ const TRIMMED: f32 = 0.7;
 /// The beard's neckline under the jaw (rest height, decimetres): roots thin out from the
 /// second height down to the first.
 const NECKLINE: (f32, f32) = (6.1, 6.22);
+/// The beard's roots' hash salt (see `SCALP_SALT`).
+const BEARD_SALT: u32 = 31;
 /// The least beard mask a root is grown at, and the most lip red under it.
 const LEAST_MASK: f32 = 0.4;
 const MOST_LIP: f32 = 0.05;
@@ -77,21 +81,9 @@ pub(super) fn roots(model: &FaceModel, neutral: &[Vec3]) -> Vec<BeardRoot> {
         if mask < LEAST_MASK || most(&lips) > MOST_LIP || most(&mouth) > 0.0 {
             continue;
         }
-        let [pa, pb, pc] = [a, b, c].map(|v| neutral[v as usize]);
-        let area = 0.5 * (pb - pa).cross(pc - pa).length();
-        let expected = area * DENSITY * mask * mask;
-        let count = expected.floor() as u32 + u32::from(hash01(t as u32, 31, 0) < expected.fract());
-        let normal = (pb - pa).cross(pc - pa).normalize_or(Vec3::Z);
-        for k in 0..count {
-            let (mut u, mut v) = (hash01(t as u32, k, 32), hash01(t as u32, k, 33));
-            if u + v > 1.0 {
-                (u, v) = (1.0 - u, 1.0 - v);
-            }
-            let w = 1.0 - u - v;
-            let vertex = if w >= u && w >= v { a } else if u >= v { b } else { c };
-            let position = pa * w + pb * u + pc * v;
-            let room = red.iter().map(|&p| p.distance(position)).fold(f32::INFINITY, f32::min);
-            roots.push(BeardRoot { root: Root { position, normal, rest: ra * w + rb * u + rc * v, vertex }, room });
+        for root in roots_on_triangle(model, neutral, t, DENSITY * mask * mask, BEARD_SALT, Vec3::Z) {
+            let room = red.iter().map(|&p| p.distance(root.position)).fold(f32::INFINITY, f32::min);
+            roots.push(BeardRoot { root, room });
         }
     }
     roots
