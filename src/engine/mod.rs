@@ -384,8 +384,8 @@ mod tests {
     /// moustache is trimmed above the lips' red, and each row of a card moves with the skin
     /// under it. With a 12 mm beard the camera sees at least 0.93 of the red and 0.95 of the
     /// upper teeth it sees without one, at rest, in a broad smile and with the upper lip
-    /// raised, on four men (cards grown inside the mouth and moving with their roots only left
-    /// 0.43 of the teeth in view at 10+25).
+    /// raised, on four men (with cards grown inside the mouth too, 0.43 of the teeth stayed in
+    /// view at 10+25).
     #[test]
     fn a_beard_leaves_the_mouth_in_view() {
         let mut failures = Vec::new();
