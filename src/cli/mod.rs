@@ -273,7 +273,7 @@ enum IdentitiesCommand {
         #[arg(long)]
         id: Option<String>,
         /// A beard, its hairs this many millimetres long (0..=20; 0 = none).
-        #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=20))]
+        #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=crate::engine::identity::MAX_BEARD_MM as i64))]
         beard: u32,
         /// The identity file to create or append to.
         #[arg(short, long)]

@@ -972,27 +972,30 @@ impl<'a> FaceShader<'a> {
     fn shade_body(&self, f: &Fragment) -> Vec3 {
         let below = below_neckline(self.body, f.position);
         let half = 0.5 * self.pixel_width(f.position);
+        let reach = self.key_reach(f);
         if below <= -half {
-            return self.shade_neck(f, below);
+            return self.shade_neck(f, below, reach);
         }
         if below >= half {
-            return self.shade_top(f, below);
+            return self.shade_top(f, below, reach);
         }
-        self.shade_neck(f, below).lerp(self.shade_top(f, below), (below + half) / (2.0 * half))
+        self.shade_neck(f, below, reach).lerp(self.shade_top(f, below, reach), (below + half) / (2.0 * half))
     }
 
-    /// The bare neck, `below` the neckline (negative): the skin next to the top's rib lies in
-    /// its shadow, which fades over the few millimetres the rib stands off the skin.
-    fn shade_neck(&self, f: &Fragment, below: f32) -> Vec3 {
+    /// The bare neck, `below` the neckline (negative), reached by `reach` of the key light: the
+    /// skin next to the top's rib lies in its shadow, which fades over the few millimetres the
+    /// rib stands off the skin.
+    fn shade_neck(&self, f: &Fragment, below: f32, reach: f32) -> Vec3 {
         let p = f.position;
         let contact = 1.0 - COLLAR_CONTACT_SHADOW * (1.0 - smoothstep(0.0, COLLAR_CONTACT_DM, -below));
         let albedo = self.identity.skin * (1.0 + 0.06 * (fbm(p * 40.0) - 0.5)) * contact;
-        self.lit(f, f.normal, albedo, 0.35, 0.25, 18.0)
+        let skin = Surface { wrap: 0.35, specular: 0.25, shininess: 18.0, open: 1.0, tissue: true };
+        self.lit_reached(f, f.normal, albedo, skin, reach)
     }
 
-    /// The crew-neck top, `below` the neckline: a ribbed band along the neckline that rolls over
-    /// towards the neck, knit, soft folds.
-    fn shade_top(&self, f: &Fragment, below: f32) -> Vec3 {
+    /// The crew-neck top, `below` the neckline, reached by `reach` of the key light: a ribbed
+    /// band along the neckline that rolls over towards the neck, knit, soft folds.
+    fn shade_top(&self, f: &Fragment, below: f32, reach: f32) -> Vec3 {
         let p = f.position;
         let below = below.max(0.0);
         let rib = 1.0 - smoothstep(0.05, 0.06, below);
@@ -1006,7 +1009,7 @@ impl<'a> FaceShader<'a> {
         }
         let texture = 0.93 + 0.07 * weave - 0.08 * rib * stripes;
         let fabric = Surface { wrap: 0.25, specular: 0.04, shininess: 8.0, open: 1.0, tissue: false };
-        self.lit_reached(f, normal, self.identity.top * texture, fabric, self.key_reach(f))
+        self.lit_reached(f, normal, self.identity.top * texture, fabric, reach)
     }
 
     fn shade_eye(&self, f: &Fragment, side: usize) -> Vec3 {
