@@ -1,6 +1,8 @@
 //! A beard as hair cards: short strands rooted where the stubble is painted
 //! ([`beard_mask`]: the upper lip, the chin, the jaw and the cheeks above it, never the lips'
-//! red or the inside of the mouth, trimmed at a neckline under the jaw), lying along the skin
+//! red or the inside of the mouth, trimmed at a neckline under the jaw) and beyond it on the
+//! cheeks and the sideburns, which run up in front of the ears into the scalp's hair
+//! ([`grown_mask`]), lying along the skin
 //! and growing down it; on the upper lip, down and out from the philtrum, as a moustache
 //! grows, and trimmed above the red.
 //!
@@ -13,7 +15,9 @@
 //! Invariants: each row's centre is grown [`CLEARANCE`] out from the closest point of the
 //! skin, and no corner of a card lies more than 0.25 mm inside the skin at rest nor 1.25 mm
 //! as the face moves (test `engine::hair::beard::tests::beard_cards_lie_outside_the_skin`);
-//! the same person gives the same cards.
+//! the sideburns leave no bare skin in front of the ear below the hairline and never reach the
+//! ear (test `the_sideburns_join_the_scalps_hair_and_spare_the_ears`); the same person gives
+//! the same cards.
 
 use glam::Vec3;
 
@@ -53,10 +57,22 @@ const SAME_SIDE: f32 = 0.35;
 /// looked for (the skin's triangles are at most a few millimetres across).
 pub(super) const SKIN_REACH: f32 = 0.06;
 
-/// Where a beard grows (rest space of the base mesh, 0..1): the stubble's [`beard_mask`],
-/// trimmed at a neckline under the jaw (the stubble's shadow runs on down the throat).
+/// Where a beard grows (rest space of the base mesh, 0..1): the stubble's [`beard_mask`] with
+/// the full beard's cheeks and sideburns, trimmed at a neckline under the jaw (the stubble's
+/// shadow runs on down the throat).
 pub(crate) fn grown_mask(rest: Vec3) -> f32 {
-    beard_mask(rest) * smooth(NECKLINE.0, NECKLINE.1, rest.y)
+    beard_mask(rest).max(cheeks_and_sideburns(rest)) * smooth(NECKLINE.0, NECKLINE.1, rest.y)
+}
+
+/// Where a full beard grows beyond the stubble's region: the cheeks up to a line rising from
+/// the moustache's end (x 0.25, y 6.8) to the sideburn (x 0.64, y 7.0), and the sideburns, up the
+/// side of the face in front of the ear to the scalp's hair; neither behind z 0.68, where the ear lies.
+fn cheeks_and_sideburns(rest: Vec3) -> f32 {
+    let (x, y, z) = (rest.x.abs(), rest.y, rest.z);
+    let line = 6.8 + 0.2 * ((x - 0.25) / 0.39).clamp(0.0, 1.0);
+    let cheeks = smooth(line + 0.04, line - 0.04, y) * smooth(0.22, 0.3, x) * smooth(6.0, 6.2, y) * smooth(0.68, 0.74, z);
+    let sideburns = smooth(0.62, 0.66, x) * smooth(7.7, 7.55, y) * smooth(0.98, 0.88, z) * smooth(0.68, 0.74, z);
+    cheeks.max(sideburns)
 }
 
 /// Where a beard strand grows, and how far (decimetres) its root lies from the lips' red.
@@ -321,5 +337,29 @@ mod tests {
         assert!(with.positions[..n] == without.positions[..], "the scalp's cards changed");
         assert!(with.beard_vertices() == (n..with.positions.len()).collect::<Vec<_>>(), "the beard's cards come last");
         assert!(with.positions.len() > n + 5_000, "{} beard vertices", with.positions.len() - n);
+    }
+
+    /// A full beard runs up the sideburns into the scalp's hair: in front of the ear, no skin
+    /// between the jaw and the hairline is bare of both (on the men whose hairlines sit lowest
+    /// and highest), and the beard never grows on the ear.
+    #[test]
+    fn the_sideburns_join_the_scalps_hair_and_spare_the_ears() {
+        let model = FaceModel::embedded();
+        let ears = model.region("ears").unwrap();
+        let skin = || model.part(Part::Skin).vertices.clone().map(|v| v as usize);
+        let on_ears: Vec<usize> = skin().filter(|&v| ears[v] >= 0.5).collect();
+        assert!(on_ears.len() > 100, "{} ear vertices", on_ears.len());
+        let grown_on_ears: Vec<_> = on_ears.iter().map(|&v| model.rest[v]).filter(|&p| grown_mask(p) > 0.0).collect();
+        assert!(grown_on_ears.is_empty(), "beard on the ears at {grown_on_ears:?}");
+        let band: Vec<Vec3> = skin()
+            .map(|v| model.rest[v])
+            .filter(|p| (0.62..0.72).contains(&p.x.abs()) && (0.74..0.88).contains(&p.z) && (6.6..7.8).contains(&p.y))
+            .collect();
+        assert!(band.len() > 30, "{} vertices in front of the ears", band.len());
+        for id in ["wm1", "mem2", "eam2", "bm2"] {
+            let hairline = crate::engine::hair::Hairline::of(IdentityTable::built_in().get(id).unwrap());
+            let bare: Vec<_> = band.iter().filter(|&&p| grown_mask(p) < 0.5 && hairline.mask(p, 0.5) < 0.5).collect();
+            assert!(bare.is_empty(), "{id}: bare skin between the sideburn and the hair at {bare:?}");
+        }
     }
 }
