@@ -716,7 +716,7 @@ fn hair_edge(line: f32, raise: f32, y: f32, noise: f32) -> f32 {
 
 /// The height (rest y) of the hairline, unraised, above `rest`'s place on the head: high over
 /// the forehead, down over the temples and low at the nape.
-fn scalp_line(rest: Vec3) -> f32 {
+pub(crate) fn scalp_line(rest: Vec3) -> f32 {
     let x = rest.x.abs();
     let front = 8.02 + 2.4 * (x - 0.35).max(0.0).powi(2);
     let profile = [(0.0, 6.75), (0.35, 7.25), (0.85, 7.6), (1.15, front)];

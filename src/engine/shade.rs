@@ -1391,7 +1391,10 @@ fn hairline_hairs(rest: Vec3, cover: f32, texture: HairTexture, pixel: f32) -> f
     // Across the hairs: around the head (decimetres of arc at the hairline), so that the
     // strokes run up the forehead and the temples alike.
     let around = rest.x.atan2(rest.z - super::hair::HEAD_CENTRE.z) * 0.8;
-    let across = around * HAIRLINE_STROKES_ACROSS;
+    // The hairs lean out from the middle of the forehead, down and back at the temples, each
+    // lock a little its own way: the strokes are sheared by that lean about the hairline.
+    let lean = HAIRLINE_FAN * (around / HAIRLINE_FAN_REACH).clamp(-1.0, 1.0) + HAIRLINE_WAVE * (2.0 * value_noise(Vec3::new(around * 12.0, 1.5, 7.5)) - 1.0);
+    let across = (around + lean * (rest.y - super::hair::scalp_line(rest))) * HAIRLINE_STROKES_ACROSS;
     // Each few hairs start and end at heights of their own: strokes on the noise's lattice rows
     // alone all end on the same lines, a comb's teeth across the forehead.
     let stagger = 1.5 * value_noise(Vec3::new(across * 0.37, 3.5, 5.5));
@@ -1400,6 +1403,13 @@ fn hairline_hairs(rest: Vec3, cover: f32, texture: HairTexture, pixel: f32) -> f
     let thinning = 4.0 * cover * (1.0 - cover);
     (cover + HAIRLINE_CONTRAST * thinning * (strokes - 0.5)).clamp(0.0, 1.0)
 }
+
+/// How far (radians, about) the hairline's hairs lean out from upright at the temples and
+/// beyond, where they reach that lean (decimetres of arc round the head from the middle of the
+/// forehead), and how far each lock's hairs lean their own way.
+const HAIRLINE_FAN: f32 = 0.45;
+const HAIRLINE_FAN_REACH: f32 = 0.6;
+const HAIRLINE_WAVE: f32 = 0.12;
 
 /// Cells of the hairline's hair strokes across the hairs (which grow up out of the forehead
 /// and temples), per decimetre: hairs about 0.4 mm apart.
@@ -2276,9 +2286,10 @@ mod tests {
     }
 
     /// Where the painted hair thins out toward the forehead it is drawn as hairs: straight hairs
-    /// as strokes running up the forehead and the temple (at least 3× more variation across
-    /// them than along, within 0.15 rad of vertical), coiled hairs as specks without a strong
-    /// grain (under 3×); the mean cover stays where it was (within 0.05), a pixel many hairs
+    /// as strokes (at least 3× more variation across them than along) running up the middle of
+    /// the forehead (within 0.15 rad of vertical), leaning out beside it, the two sides alike,
+    /// and down and back at the temple (0.2–0.6 rad from upright; all upright, they read as a
+    /// comb's teeth), coiled hairs as specks without a strong grain (under 3×); the mean cover stays where it was (within 0.05), a pixel many hairs
     /// wide sees under a third of the spread, and bare skin and full cover are left alone.
     #[test]
     fn the_hairline_is_drawn_as_hairs() {
@@ -2302,11 +2313,18 @@ mod tests {
                 let far = Grain::of(|p| at(p, 0.05), origin, 0.002);
                 assert!(far.spread < close.spread / 3.0, "{texture:?}: spread {} seen from far, {} close", far.spread, close.spread);
             }
-            // At the temple the hairs run up the side of the head too (the patch lies in the
-            // plane x = 0.75, its first axis along z).
+            // At the temple the hairs run down and back (the patch lies in the plane x = 0.75,
+            // its first axis along z, forward: a run below upright climbs forward).
             let temple = Grain::of(|p| hairline_hairs(Vec3::new(0.75, p.y, p.x), 0.5, texture, 0.0), Vec2::new(0.6, 7.8), 0.002);
+            // Beside the middle of the forehead they lean out, each side its own way.
+            let side = |x: f32| Grain::of(|p| hairline_hairs(Vec3::new(p.x, p.y, 1.2), 0.5, texture, 0.0), Vec2::new(x, 7.95), 0.002);
+            let (left, right) = (side(0.3), side(-0.3));
+            println!("{texture:?}: temple {:.3} rad, forehead left {:.3}, right {:.3}", temple.runs, left.runs, right.runs);
             if texture != HairTexture::Coiled {
-                assert!(temple.off(up) < 0.15 && temple.anisotropy >= 3.0, "{texture:?} at the temple: {:.2} rad, {:.1}", temple.runs, temple.anisotropy);
+                let back = up as f64 - temple.runs;
+                assert!((0.2..0.6).contains(&back) && temple.anisotropy >= 3.0, "{texture:?} at the temple: {:.2} rad, {:.1}", temple.runs, temple.anisotropy);
+                let (out_left, out_right) = (left.runs - up as f64, up as f64 - right.runs);
+                assert!(out_left > 0.05 && out_right > 0.05 && (out_left - out_right).abs() < 0.15, "{texture:?} beside the forehead's middle: {out_left:.2} and {out_right:.2} rad out");
             }
             assert_eq!(hairline_hairs(Vec3::new(x, 8.0, z), 0.0, texture, 0.0), 0.0);
             assert_eq!(hairline_hairs(Vec3::new(x, 8.0, z), 1.0, texture, 0.0), 1.0);
