@@ -855,7 +855,18 @@ impl HairModel {
         let first = self.strand_tone.len() as u32;
         for (k, beard_root) in beard::roots(model, skin).iter().enumerate() {
             let (n, root) = (first + k as u32, &beard_root.root);
-            let (points, under) = beard::grow(beard_root, n, identity.beard, rows, &surface, &grid);
+            let (mut points, mut under) = beard::grow(beard_root, n, identity.beard, rows, &surface, &grid);
+            // A sideburn's strand stops short of the ear (it lies on the face beside it): the
+            // rows from the first in the ear on are collapsed onto the last before it.
+            match points.iter().position(|&p| self.head.in_ears(p)) {
+                Some(0) => continue,
+                Some(k) => {
+                    let (last, last_under) = (points[k - 1], under[k - 1]);
+                    points[k..].fill(last);
+                    under[k..].fill(last_under);
+                }
+                None => {}
+            }
             let card = Card { width: beard::WIDTH * (0.7 + 0.6 * hash01(n, 7, 1)), tip_from: tip_from(n), on_head: true, combed: None };
             self.add_card(&points, root.vertex, card, Some(&under));
             self.strand_tone.push(lock_tone(root.rest, n));

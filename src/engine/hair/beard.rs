@@ -47,9 +47,11 @@ const TRIMMED: f32 = 0.7;
 const NECKLINE: (f32, f32) = (6.1, 6.22);
 /// The beard's roots' hash salt (see `SCALP_SALT`).
 const BEARD_SALT: u32 = 31;
-/// The least beard mask a root is grown at, and the most lip red under it.
+/// The least beard mask a root is grown at, and the most lip red under it (the lips' region
+/// fades out over a few millimetres of skin round the red: at 0.05, the skin under the lower lip
+/// stayed bare).
 const LEAST_MASK: f32 = 0.4;
-const MOST_LIP: f32 = 0.05;
+const MOST_LIP: f32 = 0.25;
 /// The least cosine between the skin a card's point lies on and the skin its previous point
 /// lay on (about 70 degrees: the jaw's edge turns less than that from one point to the next).
 const SAME_SIDE: f32 = 0.35;
