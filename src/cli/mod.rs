@@ -256,7 +256,7 @@ enum StimuliCommand {
 #[derive(Subcommand)]
 enum IdentitiesCommand {
     /// Generate a new person from the CC0 shape targets and append it to an identity file.
-    #[command(after_help = "Examples:\n  facslab identities new --sex M --age 52 --ancestry middle-eastern --seed 3 -o people.toml\n  facslab identities new --sex M --age 40 --ancestry hispanic --seed 5 --beard 8 -o people.toml\n\nAncestries: african, east-asian, south-asian, hispanic, middle-eastern, european.\nThe same options give the same person; another --seed gives another person.")]
+    #[command(after_help = "Examples:\n  facslab identities new --sex M --age 52 --ancestry middle-eastern --seed 3 -o people.toml\n  facslab identities new --sex M --age 40 --ancestry hispanic --seed 5 --beard 8 -o people.toml\n  facslab identities new --sex M --age 35 --ancestry european --seed 2 --beard 6 --beard-style goatee -o people.toml\n\nAncestries: african, east-asian, south-asian, hispanic, middle-eastern, european.\nThe same options give the same person; another --seed gives another person.")]
     New {
         /// F or M.
         #[arg(long, value_parser = parse_sex)]
@@ -275,6 +275,9 @@ enum IdentitiesCommand {
         /// A beard, its hairs this many millimetres long (0..=20; 0 = none).
         #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=crate::engine::identity::MAX_BEARD_MM as i64))]
         beard: u32,
+        /// Where the beard grows: full (with cheeks and sideburns), goatee or moustache.
+        #[arg(long, default_value = "full", value_parser = parse_beard_style, requires = "beard")]
+        beard_style: crate::engine::identity::BeardStyle,
         /// The identity file to create or append to.
         #[arg(short, long)]
         output: PathBuf,
@@ -287,6 +290,14 @@ fn parse_sex(text: &str) -> Result<crate::engine::people::Sex, String> {
         "M" | "m" => Ok(crate::engine::people::Sex::Male),
         _ => Err(format!("\"{text}\" is not F or M")),
     }
+}
+
+fn parse_beard_style(text: &str) -> Result<crate::engine::identity::BeardStyle, String> {
+    use crate::engine::identity::BeardStyle;
+    BeardStyle::ALL.into_iter().find(|style| style.name() == text).ok_or_else(|| {
+        let names: Vec<&str> = BeardStyle::ALL.iter().map(|s| s.name()).collect();
+        format!("\"{text}\" is not one of {}", names.join(", "))
+    })
 }
 
 fn parse_origin(text: &str) -> Result<crate::engine::people::Origin, String> {
@@ -403,8 +414,8 @@ fn dispatch(command: Command) -> anyhow::Result<()> {
             }
             Ok(())
         }
-        Command::Identities { command: Some(IdentitiesCommand::New { sex, age, ancestry, seed, id, beard, output }), .. } => {
-            let request = crate::engine::people::PersonRequest { sex, age, origin: ancestry, seed, id, beard_mm: beard };
+        Command::Identities { command: Some(IdentitiesCommand::New { sex, age, ancestry, seed, id, beard, beard_style, output }), .. } => {
+            let request = crate::engine::people::PersonRequest { sex, age, origin: ancestry, seed, id, beard_mm: beard, beard_style };
             new_identity(&request, &output)
         }
         Command::Identities { command: None, identities } => {

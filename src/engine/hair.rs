@@ -853,7 +853,7 @@ impl HairModel {
         let centres = surface.centres();
         let grid = VertexGrid::new(&centres, beard::SKIN_REACH);
         let first = self.strand_tone.len() as u32;
-        for (k, beard_root) in beard::roots(model, skin).iter().enumerate() {
+        for (k, beard_root) in beard::roots(model, skin, identity.beard_style).iter().enumerate() {
             let (n, root) = (first + k as u32, &beard_root.root);
             let (mut points, mut under) = beard::grow(beard_root, n, identity.beard, rows, &surface, &grid);
             // A sideburn's strand stops short of the ear (it lies on the face beside it): the

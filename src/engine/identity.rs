@@ -109,6 +109,31 @@ impl HairStyle {
     }
 }
 
+/// Where a beard grows (with `beard` > 0).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum BeardStyle {
+    /// The upper lip, the chin, the jaw, the cheeks and the sideburns up to the scalp's hair.
+    #[default]
+    Full,
+    /// The upper lip and the chin, joined round the mouth's corners.
+    Goatee,
+    /// The upper lip alone.
+    Moustache,
+}
+
+impl BeardStyle {
+    pub const ALL: [BeardStyle; 3] = [BeardStyle::Full, BeardStyle::Goatee, BeardStyle::Moustache];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            BeardStyle::Full => "full",
+            BeardStyle::Goatee => "goatee",
+            BeardStyle::Moustache => "moustache",
+        }
+    }
+}
+
 /// The curl of the hair.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Deserialize, Default)]
 #[serde(rename_all = "kebab-case")]
@@ -173,6 +198,8 @@ struct RawIdentity {
     #[serde(default)]
     beard: f32,
     #[serde(default)]
+    beard_style: BeardStyle,
+    #[serde(default)]
     hair_style: Option<HairStyle>,
     #[serde(default)]
     hair_texture: Option<HairTexture>,
@@ -212,6 +239,7 @@ pub struct Identity {
     pub hairline: f32,
     /// The length of a beard's hairs (decimetres; 0 = no beard, the stubble alone).
     pub beard: f32,
+    pub beard_style: BeardStyle,
     pub hair_style: HairStyle,
     pub hair_texture: HairTexture,
     /// Fraction of grey hairs, 0..1.
@@ -410,6 +438,7 @@ fn validate(raw: RawIdentity, model: &FaceModel, line_of: &dyn Fn(&str) -> usize
         stubble: raw.stubble,
         hairline: raw.hairline,
         beard: raw.beard / 100.0,
+        beard_style: raw.beard_style,
         shape: raw.shape,
     })
 }
@@ -511,17 +540,26 @@ mod tests {
         let style = format!("{GOOD}hair_style = \"mohawk\"\n");
         let err = IdentityTable::from_toml(&style, FaceModel::embedded()).unwrap_err().to_string();
         assert!(err.contains("mohawk") && err.contains("line 11"), "{err}");
+        let handlebar = format!("{GOOD}beard = 8\nbeard_style = \"handlebar\"\n");
+        let err = IdentityTable::from_toml(&handlebar, FaceModel::embedded()).unwrap_err().to_string();
+        assert!(err.contains("handlebar") && err.contains("line 12"), "{err}");
         let long_beard = format!("{GOOD}beard = 25\n");
         let err = IdentityTable::from_toml(&long_beard, FaceModel::embedded()).unwrap_err().to_string();
         assert!(err.contains("`beard`") && err.contains("line 11") && err.contains("25 is outside 0..20"), "{err}");
     }
 
-    /// A beard is written in millimetres and kept in decimetres; none by default.
+    /// A beard is written in millimetres and kept in decimetres, none by default; its style by
+    /// name, full by default.
     #[test]
     fn a_beard_is_read_in_millimetres() {
         let table = IdentityTable::from_toml(&format!("{GOOD}beard = 8\n"), FaceModel::embedded()).unwrap();
         assert!((table.get("x").unwrap().beard - 0.08).abs() < 1e-7);
         assert_eq!(IdentityTable::from_toml(GOOD, FaceModel::embedded()).unwrap().get("x").unwrap().beard, 0.0);
+        for style in BeardStyle::ALL {
+            let text = format!("{GOOD}beard = 8\nbeard_style = \"{}\"\n", style.name());
+            assert_eq!(IdentityTable::from_toml(&text, FaceModel::embedded()).unwrap().get("x").unwrap().beard_style, style);
+        }
+        assert_eq!(IdentityTable::from_toml(GOOD, FaceModel::embedded()).unwrap().get("x").unwrap().beard_style, BeardStyle::Full);
     }
 
     #[test]

@@ -7,6 +7,8 @@
 
 use std::fmt::Write as _;
 
+use super::identity::BeardStyle;
+
 /// Broad ancestry of a generated person (sets the macro shape blend, skin, hair and eye ranges).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Origin {
@@ -141,6 +143,8 @@ pub struct PersonRequest {
     pub id: Option<String>,
     /// A beard's length in millimetres (0: none); the rest of the person is the same either way.
     pub beard_mm: u32,
+    /// Where the beard grows (with `beard_mm` > 0).
+    pub beard_style: BeardStyle,
 }
 
 impl PersonRequest {
@@ -287,6 +291,7 @@ pub fn generate(request: &PersonRequest) -> String {
     let _ = writeln!(out, "stubble = {}", round(stubble));
     if request.beard_mm > 0 {
         let _ = writeln!(out, "beard = {}", request.beard_mm);
+        let _ = writeln!(out, "beard_style = \"{}\"", request.beard_style.name());
     }
     let _ = writeln!(out, "hairline = {}", round(hairline));
     let _ = writeln!(out, "hair_style = \"{style}\"");
@@ -306,20 +311,24 @@ mod tests {
     use crate::engine::identity::IdentityTable;
 
     fn request(origin: Origin, sex: Sex, seed: u64) -> PersonRequest {
-        PersonRequest { sex, age: 40, origin, seed, id: None, beard_mm: 0 }
+        PersonRequest { sex, age: 40, origin, seed, id: None, beard_mm: 0, beard_style: BeardStyle::Full }
     }
 
-    /// A beard asked for is written into the person's block, which reads back with it; the
-    /// rest of the block is the same as without one.
+    /// A beard asked for is written into the person's block with its style, and reads back
+    /// with them; the rest of the block is the same as without one.
     #[test]
     fn a_generated_person_may_have_a_beard() {
         let plain = generate(&request(Origin::MiddleEastern, Sex::Male, 3));
-        let bearded = generate(&PersonRequest { beard_mm: 8, ..request(Origin::MiddleEastern, Sex::Male, 3) });
-        let without: Vec<&str> = bearded.lines().filter(|l| !l.starts_with("beard = ")).collect();
-        assert_eq!(without, plain.lines().collect::<Vec<_>>());
-        assert!(!plain.contains("beard = "));
-        let table = IdentityTable::from_toml(&bearded, FaceModel::embedded()).unwrap();
-        assert!((table.iter().next().unwrap().beard - 0.08).abs() < 1e-7);
+        assert!(!plain.contains("beard"));
+        for style in BeardStyle::ALL {
+            let bearded = generate(&PersonRequest { beard_mm: 8, beard_style: style, ..request(Origin::MiddleEastern, Sex::Male, 3) });
+            let without: Vec<&str> = bearded.lines().filter(|l| !l.starts_with("beard")).collect();
+            assert_eq!(without, plain.lines().collect::<Vec<_>>());
+            let table = IdentityTable::from_toml(&bearded, FaceModel::embedded()).unwrap();
+            let person = table.iter().next().unwrap();
+            assert!((person.beard - 0.08).abs() < 1e-7);
+            assert_eq!(person.beard_style, style);
+        }
     }
 
     #[test]

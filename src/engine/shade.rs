@@ -463,9 +463,9 @@ struct SkinMaps {
 impl SkinMaps {
     /// The maps of `identity`, computed once per person and shared by every frame.
     fn cached(model: &FaceModel, identity: &Identity) -> Arc<SkinMaps> {
-        type Key = (String, u32, u32, u32);
+        type Key = (String, u32, u32, u32, super::identity::BeardStyle);
         static CACHE: OnceLock<Mutex<BTreeMap<Key, Arc<SkinMaps>>>> = OnceLock::new();
-        let key = (identity.id.clone(), identity.stubble.to_bits(), identity.hairline.to_bits(), identity.beard.to_bits());
+        let key = (identity.id.clone(), identity.stubble.to_bits(), identity.hairline.to_bits(), identity.beard.to_bits(), identity.beard_style);
         let made: Result<_, std::convert::Infallible> = super::cached(CACHE.get_or_init(Default::default), key, || Ok(SkinMaps::new(model, identity)));
         made.unwrap_or_else(|never| match never {})
     }
@@ -475,7 +475,7 @@ impl SkinMaps {
         let regions = regions(model);
         let hairline = Hairline::of(identity);
         // Under a beard the skin is dark with the hairs' roots, whatever the stubble.
-        let roots = |p: Vec3| if identity.beard > 0.0 { BEARD_ROOTS * super::hair::beard::grown_mask(p) } else { 0.0 };
+        let roots = |p: Vec3| if identity.beard > 0.0 { BEARD_ROOTS * super::hair::beard::grown_mask(p, identity.beard_style) } else { 0.0 };
         let vertices = skin
             .iter()
             .enumerate()

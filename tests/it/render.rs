@@ -87,8 +87,8 @@ fn identities_lists_at_least_24_people() {
     assert!(String::from_utf8_lossy(&output.stdout).lines().count() >= 24);
 }
 
-/// A person generated into a file (one with a beard) renders from that file, without rebuilding
-/// facslab; a damaged file fails with the line and the field named.
+/// A person generated into a file (one with a beard, one with a goatee) renders from that file,
+/// without rebuilding facslab; a damaged file fails with the line and the field named.
 #[test]
 fn people_from_a_file_render_and_bad_files_are_named() {
     let dir = tempfile::tempdir().unwrap();
@@ -98,13 +98,20 @@ fn people_from_a_file_render_and_bad_files_are_named() {
     facslab_ok(dir.path(), &["identities", "new", "--sex", "M", "--age", "61", "--ancestry", "hispanic", "--seed", "5", "--beard", "8", "-o", "people.toml"]);
     let too_long = facslab(dir.path(), &["identities", "new", "--sex", "M", "--age", "61", "--ancestry", "hispanic", "--beard", "30", "-o", "more.toml"]);
     assert!(!too_long.status.success() && stderr(&too_long).contains("--beard"), "{}", stderr(&too_long));
+    let goatee = ["identities", "new", "--sex", "M", "--age", "35", "--ancestry", "european", "--seed", "2", "--beard", "6", "--beard-style", "goatee", "-o", "people.toml"];
+    facslab_ok(dir.path(), &goatee);
+    let unknown = facslab(dir.path(), &["identities", "new", "--sex", "M", "--age", "35", "--ancestry", "european", "--beard", "6", "--beard-style", "handlebar", "-o", "more.toml"]);
+    assert!(!unknown.status.success() && stderr(&unknown).contains("handlebar") && stderr(&unknown).contains("goatee"), "{}", stderr(&unknown));
+    assert!(!dir.path().join("more.toml").exists());
     let listed = facslab_ok(dir.path(), &["identities", "--identities", "people.toml"]);
     let text = String::from_utf8_lossy(&listed.stdout);
     assert!(text.contains("saf5") && text.contains("hlm5") && text.contains("wm1"), "{text}");
     facslab_ok(dir.path(), &["render", "12", "--identities", "people.toml", "--identity", "hlm5", "-o", "p.png", "--size", "64x64"]);
-    assert!(dir.path().join("p.png").exists());
+    facslab_ok(dir.path(), &["render", "12", "--identities", "people.toml", "--identity", "eum2", "-o", "g.png", "--size", "64x64"]);
+    assert!(dir.path().join("p.png").exists() && dir.path().join("g.png").exists());
     let people = std::fs::read_to_string(dir.path().join("people.toml")).unwrap();
-    assert!(people.contains("\nbeard = 8\n"), "{people}");
+    assert!(people.contains("\nbeard = 8\nbeard_style = \"full\"\n"), "{people}");
+    assert!(people.contains("\nbeard = 6\nbeard_style = \"goatee\"\n"), "{people}");
     let broken = people.replacen("age = 61", "age = 610", 1);
     std::fs::write(dir.path().join("bad.toml"), &broken).unwrap();
     let line = 1 + broken.lines().position(|l| l == "age = 610").unwrap();

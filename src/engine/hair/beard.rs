@@ -1,12 +1,13 @@
 //! A beard as hair cards: short strands rooted where the stubble is painted
 //! ([`beard_mask`]: the upper lip, the chin, the jaw and the cheeks above it, never the lips'
 //! red or the inside of the mouth, trimmed at a neckline under the jaw) and beyond it on the
-//! cheeks and the sideburns, which run up in front of the ears into the scalp's hair
+//! cheeks and the sideburns, which run up in front of the ears into the scalp's hair, for a
+//! full beard; on the upper lip and the chin for a goatee, the upper lip for a moustache
 //! ([`grown_mask`]), lying along the skin
 //! and growing down it; on the upper lip, down and out from the philtrum, as a moustache
 //! grows, and trimmed above the red.
 //!
-//! In: the face model, the person's beard length, the neutral skin (in the head map's space,
+//! In: the face model, the person's beard length and style, the neutral skin (in the head map's space,
 //! as the scalp's roots are) and its vertex normals. Out: the roots ([`roots`]) and each
 //! strand's points with the skin under each ([`grow`]), which the hair model draws as cards
 //! like the scalp's, with the hair's colour, greying and lighting, each row moving with the
@@ -16,13 +17,15 @@
 //! skin, and no corner of a card lies more than 0.25 mm inside the skin at rest nor 1.25 mm
 //! as the face moves (test `engine::hair::beard::tests::beard_cards_lie_outside_the_skin`);
 //! the sideburns leave no bare skin in front of the ear below the hairline and never reach the
-//! ear (test `the_sideburns_join_the_scalps_hair_and_spare_the_ears`); the same person gives
-//! the same cards.
+//! ear (test `the_sideburns_join_the_scalps_hair_and_spare_the_ears`); a goatee and a moustache
+//! grow only where they are worn (test `a_goatee_and_a_moustache_grow_where_they_are_worn`);
+//! the same person gives the same cards.
 
 use glam::Vec3;
 
 use super::{hash01, roots_on_triangle, smooth, Root, VertexGrid};
 use crate::engine::asset::{FaceModel, Part};
+use crate::engine::identity::BeardStyle;
 use crate::engine::shade::beard_mask;
 
 /// Roots per square decimetre of beard at full [`beard_mask`] (each card a bundle of hairs),
@@ -59,11 +62,18 @@ const SAME_SIDE: f32 = 0.35;
 /// looked for (the skin's triangles are at most a few millimetres across).
 pub(super) const SKIN_REACH: f32 = 0.06;
 
-/// Where a beard grows (rest space of the base mesh, 0..1): the stubble's [`beard_mask`] with
-/// the full beard's cheeks and sideburns, trimmed at a neckline under the jaw (the stubble's
-/// shadow runs on down the throat).
-pub(crate) fn grown_mask(rest: Vec3) -> f32 {
-    beard_mask(rest).max(cheeks_and_sideburns(rest)) * smooth(NECKLINE.0, NECKLINE.1, rest.y)
+/// Where a beard of `style` grows (rest space of the base mesh, 0..1), trimmed at a neckline
+/// under the jaw (the stubble's shadow runs on down the throat): a full beard over the stubble's
+/// [`beard_mask`] with the cheeks and sideburns; a goatee over the stubble's upper lip and its
+/// chin, to a little beyond the mouth's corners (x 0.25 at rest); a moustache over its upper lip.
+pub(crate) fn grown_mask(rest: Vec3, style: BeardStyle) -> f32 {
+    let stubble = beard_mask(rest);
+    let grown = match style {
+        BeardStyle::Full => stubble.max(cheeks_and_sideburns(rest)),
+        BeardStyle::Goatee => stubble * smooth(0.3, 0.24, rest.x.abs()),
+        BeardStyle::Moustache => stubble * smooth(6.66, 6.72, rest.y),
+    };
+    grown * smooth(NECKLINE.0, NECKLINE.1, rest.y)
 }
 
 /// Where a full beard grows beyond the stubble's region: the cheeks up to a line rising from
@@ -77,23 +87,26 @@ fn cheeks_and_sideburns(rest: Vec3) -> f32 {
     cheeks.max(sideburns)
 }
 
-/// Where a beard strand grows, and how far (decimetres) its root lies from the lips' red.
+/// Where a beard strand grows, how far (decimetres) its root lies from the lips' red, and how
+/// thick the beard is there.
 pub(super) struct BeardRoot {
     pub root: Root,
     pub room: f32,
+    /// The beard's [`grown_mask`] on the root's triangle.
+    pub mask: f32,
 }
 
 /// The roots of a beard on the skin `neutral` (head map's space; `model.rest` gives the rest
 /// position that the mask reads): sampled by area and mask with fixed hashes, triangle by
 /// triangle, as the scalp's are.
-pub(super) fn roots(model: &FaceModel, neutral: &[Vec3]) -> Vec<BeardRoot> {
+pub(super) fn roots(model: &FaceModel, neutral: &[Vec3], style: BeardStyle) -> Vec<BeardRoot> {
     let lips = model.region("lips").unwrap_or_default();
     let mouth = model.region("inside_mouth").unwrap_or_default();
     let red: Vec<Vec3> = lips.iter().zip(neutral).filter(|&(&w, _)| w >= 0.5).map(|(_, &p)| p).collect();
     let mut roots = Vec::new();
     for (t, &[a, b, c]) in model.part(Part::Skin).triangles.iter().enumerate() {
         let [ra, rb, rc] = [a, b, c].map(|v| model.rest[v as usize]);
-        let mask = grown_mask((ra + rb + rc) / 3.0);
+        let mask = grown_mask((ra + rb + rc) / 3.0, style);
         let most = |weights: &[f32]| [a, b, c].iter().map(|&v| weights.get(v as usize).copied().unwrap_or(0.0)).fold(0.0, f32::max);
         // The mask is drawn on the face's front: the inside of the mouth lies behind it.
         if mask < LEAST_MASK || most(&lips) > MOST_LIP || most(&mouth) > 0.0 {
@@ -101,7 +114,7 @@ pub(super) fn roots(model: &FaceModel, neutral: &[Vec3]) -> Vec<BeardRoot> {
         }
         for root in roots_on_triangle(model, neutral, t, DENSITY * mask * mask, BEARD_SALT, Vec3::Z) {
             let room = red.iter().map(|&p| p.distance(root.position)).fold(f32::INFINITY, f32::min);
-            roots.push(BeardRoot { root, room });
+            roots.push(BeardRoot { root, room, mask });
         }
     }
     roots
@@ -218,7 +231,7 @@ pub(super) struct Under {
 pub(super) fn grow(beard_root: &BeardRoot, n: u32, length: f32, rows: usize, skin: &Skin, grid: &VertexGrid) -> (Vec<Vec3>, Vec<Under>) {
     let root = &beard_root.root;
     // A little shorter toward the beard's edges, where it also thins out.
-    let edge = 0.7 + 0.3 * smooth(LEAST_MASK, 0.8, grown_mask(root.rest));
+    let edge = 0.7 + 0.3 * smooth(LEAST_MASK, 0.8, beard_root.mask);
     let length = length * edge * (0.75 + 0.5 * hash01(n, 34, 0));
     // A moustache is trimmed above the lips' red (over it, and over the teeth when the lip
     // rises, it hides what the mouth does).
@@ -351,7 +364,7 @@ mod tests {
         let skin = || model.part(Part::Skin).vertices.clone().map(|v| v as usize);
         let on_ears: Vec<usize> = skin().filter(|&v| ears[v] >= 0.5).collect();
         assert!(on_ears.len() > 100, "{} ear vertices", on_ears.len());
-        let grown_on_ears: Vec<_> = on_ears.iter().map(|&v| model.rest[v]).filter(|&p| grown_mask(p) > 0.0).collect();
+        let grown_on_ears: Vec<_> = on_ears.iter().map(|&v| model.rest[v]).filter(|&p| BeardStyle::ALL.iter().any(|&style| grown_mask(p, style) > 0.0)).collect();
         assert!(grown_on_ears.is_empty(), "beard on the ears at {grown_on_ears:?}");
         let band: Vec<Vec3> = skin()
             .map(|v| model.rest[v])
@@ -360,8 +373,25 @@ mod tests {
         assert!(band.len() > 30, "{} vertices in front of the ears", band.len());
         for id in ["wm1", "mem2", "eam2", "bm2"] {
             let hairline = crate::engine::hair::Hairline::of(IdentityTable::built_in().get(id).unwrap());
-            let bare: Vec<_> = band.iter().filter(|&&p| grown_mask(p) < 0.5 && hairline.mask(p, 0.5) < 0.5).collect();
+            let bare: Vec<_> = band.iter().filter(|&&p| grown_mask(p, BeardStyle::Full) < 0.5 && hairline.mask(p, 0.5) < 0.5).collect();
             assert!(bare.is_empty(), "{id}: bare skin between the sideburn and the hair at {bare:?}");
         }
+    }
+
+    /// A goatee grows on the upper lip and the chin, no root further out than a little beyond
+    /// the mouth's corners (x 0.25 at rest), and a moustache on the upper lip alone, no root
+    /// below y 6.65 (the mouth's corners lie at y 6.615): each a share of a full beard's roots.
+    #[test]
+    fn a_goatee_and_a_moustache_grow_where_they_are_worn() {
+        let model = FaceModel::embedded();
+        let grown = |style| roots(model, &model.rest, style);
+        let (full, goatee, moustache) = (grown(BeardStyle::Full), grown(BeardStyle::Goatee), grown(BeardStyle::Moustache));
+        let widest = goatee.iter().map(|r| r.root.rest.x.abs()).fold(0.0, f32::max);
+        let lowest = moustache.iter().map(|r| r.root.rest.y).fold(f32::INFINITY, f32::min);
+        println!("roots: full {}, goatee {} (widest x {widest:.3}), moustache {} (lowest y {lowest:.3})", full.len(), goatee.len(), moustache.len());
+        assert!(widest <= 0.31, "a goatee's root at x {widest}");
+        assert!(lowest >= 6.65, "a moustache's root at y {lowest}");
+        assert!(goatee.len() >= 300 && 3 * goatee.len() <= full.len(), "{} goatee roots of {}", goatee.len(), full.len());
+        assert!(moustache.len() >= 100 && 2 * moustache.len() <= goatee.len(), "{} moustache roots", moustache.len());
     }
 }
