@@ -860,10 +860,10 @@ impl HairModel {
             // rows from the first in the ear on are collapsed onto the last before it.
             match points.iter().position(|&p| self.head.in_ears(p)) {
                 Some(0) => continue,
-                Some(k) => {
-                    let (last, last_under) = (points[k - 1], under[k - 1]);
-                    points[k..].fill(last);
-                    under[k..].fill(last_under);
+                Some(in_ear) => {
+                    let (last, last_under) = (points[in_ear - 1], under[in_ear - 1]);
+                    points[in_ear..].fill(last);
+                    under[in_ear..].fill(last_under);
                 }
                 None => {}
             }
