@@ -2289,8 +2289,9 @@ mod tests {
     /// as strokes (at least 3× more variation across them than along) running up the middle of
     /// the forehead (within 0.15 rad of vertical), leaning out beside it, the two sides alike,
     /// and down and back at the temple (0.2–0.6 rad from upright; all upright, they read as a
-    /// comb's teeth), coiled hairs as specks without a strong grain (under 3×); the mean cover stays where it was (within 0.05), a pixel many hairs
-    /// wide sees under a third of the spread, and bare skin and full cover are left alone.
+    /// comb's teeth), coiled hairs as specks without a strong grain (under 3×); the mean cover
+    /// stays where it was (within 0.05), a pixel many hairs wide sees under a third of the
+    /// spread, and bare skin and full cover are left alone.
     #[test]
     fn the_hairline_is_drawn_as_hairs() {
         let up = std::f32::consts::FRAC_PI_2;

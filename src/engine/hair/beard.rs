@@ -153,7 +153,7 @@ impl<'a> Skin<'a> {
 
     /// The closest point to `p` on the skin facing the way `facing` does (within
     /// [`SAME_SIDE`]: the skin a card lies on, not the far side of a fold), among the
-    /// triangles whose centres `near` lists (`grid` over [`Self::centres`]).
+    /// triangles whose centres lie within [`SKIN_REACH`] of `p` (`grid` over [`Self::centres`]).
     fn closest(&self, p: Vec3, facing: Vec3, grid: &VertexGrid) -> Option<Closest> {
         let mut best: Option<(f32, usize, Closest)> = None;
         grid.near_segment(p, p, SKIN_REACH, |t, _| {
