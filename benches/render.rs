@@ -6,6 +6,8 @@ use facslab::engine::{self, FrameSettings};
 use facslab::facs::{Catalog, Expression};
 
 fn main() {
+    // As the `facslab` binary does at its start.
+    engine::keep_freed_memory();
     divan::main();
 }
 

@@ -3,6 +3,7 @@
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
+    facslab::engine::keep_freed_memory();
     facslab::web::log::install();
     facslab::cli::run()
 }

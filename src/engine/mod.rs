@@ -90,6 +90,26 @@ pub fn portrait_camera(anchor: Vec3, width: u32, height: u32) -> Camera {
     Camera { eye: target + Vec3::new(0.0, 0.25, 11.0), target, up: Vec3::Y, fov_y_degrees: 17.0, width, height }
 }
 
+/// Asks the C library's allocator to keep the memory a frame frees for the next frame. A
+/// frame allocates a few megabytes at a time (the posed hair, the shadow map, the key light's
+/// per-vertex shares); glibc hands such blocks back to the kernel when they are freed and the
+/// next frame faults them in again, page by page: about 4 % of a 485×480 still
+/// (`docs/benchmarks.md`). Meant for a binary's start (the `facslab` binary and the render
+/// benchmark call it); it changes no output. Elsewhere than glibc it does nothing.
+pub fn keep_freed_memory() {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    {
+        /// glibc's largest threshold for serving a block by `mmap` (32 MiB on 64-bit systems).
+        const LARGEST_MMAP_THRESHOLD: libc::c_int = 32 << 20;
+        // SAFETY: `mallopt` only sets allocator parameters; called before or between
+        // allocations from any thread it is sound (glibc takes its own lock).
+        unsafe {
+            libc::mallopt(libc::M_MMAP_THRESHOLD, LARGEST_MMAP_THRESHOLD);
+            libc::mallopt(libc::M_TRIM_THRESHOLD, libc::c_int::MAX);
+        }
+    }
+}
+
 /// Poses `identity` showing `expression`.
 pub fn pose_expression(expression: &Expression, identity: &Identity) -> Result<Posed, EngineError> {
     let model = FaceModel::embedded();
