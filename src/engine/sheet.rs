@@ -11,6 +11,10 @@ const FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
 
 /// Height of the caption strip under each tile, pixels.
 const CAPTION: u32 = 22;
+/// A caption's font size in pixels, and the smallest it shrinks to where it would not fit its
+/// tile (a longer one is cut at the tile's edge).
+const CAPTION_SIZE: f32 = 15.0;
+const CAPTION_SMALLEST: f32 = 9.0;
 
 /// Lays tiles out in rows of `columns`.
 pub struct ContactSheet {
@@ -41,29 +45,58 @@ impl ContactSheet {
                     sheet.set_pixel(x0 + x, y0 + y, tile.pixel(x, y));
                 }
             }
-            draw_text(&mut sheet, caption, x0 + 6, y0 + tile_h + 4, tile_w - 12, 15.0);
+            let width = tile_w.saturating_sub(12);
+            draw_text(&mut sheet, caption, x0 + 6, y0 + tile_h + 4, width, fitted_size(caption, width, CAPTION_SIZE));
         }
         sheet
     }
 }
 
-/// Draws light text on the sheet with its top-left at (x, y), clipped to `max_width`.
-pub fn draw_text(image: &mut RgbImage, text: &str, x: u32, y: u32, max_width: u32, size: f32) {
+/// The size at which `text` fits in `max_width` pixels: `size` where it does, else as much
+/// smaller as it needs, down to [`CAPTION_SMALLEST`].
+fn fitted_size(text: &str, max_width: u32, size: f32) -> f32 {
+    let width = text_width(text, size);
+    if width <= max_width as f32 {
+        return size;
+    }
+    // Widths scale with the size; the margin keeps rounding from cutting the last glyph.
+    (size * max_width as f32 / width * 0.995).max(CAPTION_SMALLEST)
+}
+
+/// How wide `text` is at `size` pixels (advances and kerning).
+fn text_width(text: &str, size: f32) -> f32 {
+    glyph_carets(text, size).last().map_or(0.0, |&(_, _, end)| end)
+}
+
+/// Each glyph of `text` at `size` pixels with where it starts and where the next one starts.
+fn glyph_carets(text: &str, size: f32) -> Vec<(ab_glyph::GlyphId, f32, f32)> {
     let font = FontRef::try_from_slice(FONT).expect("the embedded font is valid");
     let scaled = font.as_scaled(PxScale::from(size));
     let mut caret = 0.0f32;
     let mut previous = None;
-    for ch in text.chars() {
-        let id = scaled.glyph_id(ch);
-        if let Some(prev) = previous {
-            caret += scaled.kern(prev, id);
-        }
-        previous = Some(id);
-        let glyph = id.with_scale_and_position(size, point(x as f32 + caret, y as f32 + scaled.ascent()));
-        caret += scaled.h_advance(id);
-        if caret > max_width as f32 {
+    text.chars()
+        .map(|ch| {
+            let id = scaled.glyph_id(ch);
+            if let Some(prev) = previous {
+                caret += scaled.kern(prev, id);
+            }
+            previous = Some(id);
+            let start = caret;
+            caret += scaled.h_advance(id);
+            (id, start, caret)
+        })
+        .collect()
+}
+
+/// Draws light text on the sheet with its top-left at (x, y), clipped to `max_width`.
+pub fn draw_text(image: &mut RgbImage, text: &str, x: u32, y: u32, max_width: u32, size: f32) {
+    let font = FontRef::try_from_slice(FONT).expect("the embedded font is valid");
+    let ascent = font.as_scaled(PxScale::from(size)).ascent();
+    for (id, start, end) in glyph_carets(text, size) {
+        if end > max_width as f32 {
             break;
         }
+        let glyph = id.with_scale_and_position(size, point(x as f32 + start, y as f32 + ascent));
         let Some(outline) = font.outline_glyph(glyph) else { continue };
         let bounds = outline.px_bounds();
         outline.draw(|gx, gy, coverage| {
@@ -75,5 +108,31 @@ pub fn draw_text(image: &mut RgbImage, text: &str, x: u32, y: u32, max_width: u3
             let blend = |c: u8| (c as f32 + (235.0 - c as f32) * coverage.clamp(0.0, 1.0)).round() as u8;
             image.set_pixel(px as u32, py as u32, old.map(blend));
         });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A caption too long for its tile is drawn smaller, whole: on the emotions sheet's
+    /// 242-pixel tiles the anger caption was cut after "17+4" at 15 px.
+    #[test]
+    fn a_long_caption_shrinks_to_fit_its_tile() {
+        let (short, long) = ("wm1 neutral (0)", "wm1 anger (5+7+9+10+15+17+42)");
+        let width = 242 - 12;
+        assert_eq!(fitted_size(short, width, CAPTION_SIZE), CAPTION_SIZE);
+        assert!(text_width(long, CAPTION_SIZE) > width as f32, "the long caption fits at 15 px");
+        let size = fitted_size(long, width, CAPTION_SIZE);
+        assert!((CAPTION_SMALLEST..CAPTION_SIZE).contains(&size), "{size} px");
+        assert!(text_width(long, size) <= width as f32 && text_width(long, size) > 0.95 * width as f32);
+        // Drawn at that size, its last glyph (the closing bracket) is on the sheet.
+        let mut whole = RgbImage::new(242, 22);
+        let mut cut = RgbImage::new(242, 22);
+        draw_text(&mut whole, long, 6, 4, width, size);
+        draw_text(&mut cut, &long[..long.len() - 1], 6, 4, width, size);
+        assert_ne!(whole.data, cut.data, "the closing bracket was not drawn");
+        // Beyond the smallest size a caption is cut at the tile's edge.
+        assert_eq!(fitted_size(&long.repeat(4), width, CAPTION_SIZE), CAPTION_SMALLEST);
     }
 }
