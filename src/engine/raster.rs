@@ -310,11 +310,23 @@ struct RasterTri {
     oy: f32,
 }
 
+/// Which triangle of the scene a (possibly clipped) piece comes from.
+#[derive(Clone, Copy, Debug)]
+struct Source {
+    item: u32,
+    triangle: u32,
+    /// The triangle's vertex indices, kept here so that shading and the grouping of a pixel's
+    /// samples need not look them up in the scene item again.
+    vertex: [u32; 3],
+}
+
 /// Cold per-triangle data for shading.
 #[derive(Clone, Copy, Debug)]
 struct ShadeTri {
     item: u32,
     triangle: u32,
+    /// The triangle's vertex indices in its scene item.
+    vertex: [u32; 3],
     /// Perspective weights of the corners at pixel position (x, y): corner k's weight is
     /// `max(0, weight[k][0]·x + weight[k][1]·y + weight[k][2])` (its screen-space barycentric
     /// coordinate, up to a common factor, times its 1/w), over the snapped corners of the
@@ -477,13 +489,13 @@ impl Setup {
                 if c0 & c1 & c2 != 0 || (i0 == i1 && i1 == i2) {
                     continue; // entirely outside one plane, or a point (hidden hair is given so)
                 }
-                let (item, triangle) = (item as u32, t as u32);
+                let source = Source { item: item as u32, triangle: t as u32, vertex: *idx };
                 if c0 | c1 | c2 == 0 {
                     // No clipping (most triangles): the corners' snapped points and depths as
                     // they are.
                     let q = [snapped[i0], snapped[i1], snapped[i2]];
                     let w = [homogeneous[i0].z, homogeneous[i1].z, homogeneous[i2].z];
-                    setup.emit(q, w, [Vec3::X, Vec3::Y, Vec3::Z], item, triangle, backface_culling);
+                    setup.emit(q, w, [Vec3::X, Vec3::Y, Vec3::Z], source, backface_culling);
                 } else {
                     let corners = [
                         ClipVertex { h: homogeneous[i0], bary: Vec3::X },
@@ -494,7 +506,7 @@ impl Setup {
                     for k in 1..len.saturating_sub(1) {
                         let corners = [poly[0], poly[k], poly[k + 1]];
                         let (q, w, bary) = (corners.map(|c| snap(c.h)), corners.map(|c| c.h.z), corners.map(|c| c.bary));
-                        setup.emit(q, w, bary, item, triangle, backface_culling);
+                        setup.emit(q, w, bary, source, backface_culling);
                     }
                 }
             }
@@ -506,22 +518,22 @@ impl Setup {
 
     /// Orients and stores one (possibly clipped) triangle, unless it is culled. `q`: the corners
     /// snapped to fixed point ([`snap`]); `w`: their homogeneous w; `bary`: their barycentric
-    /// coordinates with respect to the original triangle. Inlined, so that the culled half of
-    /// a closed mesh costs no call.
+    /// coordinates with respect to the original triangle; `source`: that triangle. Inlined, so
+    /// that the culled half of a closed mesh costs no call.
     #[inline(always)]
-    fn emit(&mut self, q: [[i64; 2]; 3], w: [f32; 3], bary: [Vec3; 3], item: u32, triangle: u32, backface_culling: bool) {
+    fn emit(&mut self, q: [[i64; 2]; 3], w: [f32; 3], bary: [Vec3; 3], source: Source, backface_culling: bool) {
         let area2 = (q[1][0] - q[0][0]) * (q[2][1] - q[0][1]) - (q[1][1] - q[0][1]) * (q[2][0] - q[0][0]);
         // With y down, a triangle that is counter-clockwise as seen by the viewer has area2 < 0.
         if area2 < 0 {
-            self.store(swap_last(q), swap_last(w), swap_last(bary), item, triangle);
+            self.store(swap_last(q), swap_last(w), swap_last(bary), source);
         } else if area2 > 0 && !backface_culling {
-            self.store(q, w, bary, item, triangle);
+            self.store(q, w, bary, source);
         }
     }
 
     /// Stores one triangle whose corners `q` (as for [`Self::emit`]) run so that its edge
     /// functions are positive inside.
-    fn store(&mut self, q: [[i64; 2]; 3], w: [f32; 3], bary: [Vec3; 3], item: u32, triangle: u32) {
+    fn store(&mut self, q: [[i64; 2]; 3], w: [f32; 3], bary: [Vec3; 3], source: Source) {
         let min_x = q.iter().map(|p| p[0]).min().unwrap();
         let max_x = q.iter().map(|p| p[0]).max().unwrap();
         let min_y = q.iter().map(|p| p[1]).min().unwrap();
@@ -579,7 +591,8 @@ impl Setup {
             let (dx, dy) = (pj[0] - pi[0], pj[1] - pi[1]);
             [-dy * inv_w[k], dx * inv_w[k], (dy * pi[0] - dx * pi[1]) * inv_w[k]]
         });
-        self.shade.push(ShadeTri { item, triangle, weight, bary });
+        let Source { item, triangle, vertex } = source;
+        self.shade.push(ShadeTri { item, triangle, vertex, weight, bary });
     }
 
     /// Fills the per-tile triangle lists, each in scene order.
@@ -1035,7 +1048,7 @@ impl PixelGroups {
 impl Setup {
     /// Whether triangles `a` and `b` (ids into `shade`) are neighbours on one mesh: the same
     /// scene item and at least one vertex in common (pieces of one clipped triangle included).
-    fn connected(&self, scene: &[Triangles], a: u32, b: u32) -> bool {
+    fn connected(&self, a: u32, b: u32) -> bool {
         if a == NO_TRIANGLE || b == NO_TRIANGLE {
             return false;
         }
@@ -1043,9 +1056,7 @@ impl Setup {
         if ta.item != tb.item {
             return false;
         }
-        let indices = scene[ta.item as usize].indices;
-        let (va, vb) = (indices[ta.triangle as usize], indices[tb.triangle as usize]);
-        va.iter().any(|v| vb.contains(v))
+        ta.vertex.iter().any(|v| tb.vertex.contains(v))
     }
 }
 
@@ -1094,7 +1105,7 @@ fn resolve_tile(
             } else {
                 groups.group_by_triangle(ids, pattern);
                 if options.shade_per_surface {
-                    groups.merge_connected(|a, b| setup.connected(scene, a, b));
+                    groups.merge_connected(|a, b| setup.connected(a, b));
                 }
                 let mut colour = Vec3::ZERO;
                 for g in 0..groups.len {
@@ -1133,7 +1144,7 @@ fn fragment(t: &ShadeTri, scene: &[Triangles], camera: &Camera, x: f64, y: f64, 
     let b = if sum > 0.0 && sum.is_finite() { wts.map(|w| w / sum) } else { [1.0 / 3.0; 3] };
     let bary = t.bary[0] * b[0] as f32 + t.bary[1] * b[1] as f32 + t.bary[2] * b[2] as f32;
     let tris = &scene[t.item as usize];
-    let vertex = tris.indices[t.triangle as usize];
+    let vertex = t.vertex;
     let [i0, i1, i2] = vertex.map(|i| i as usize);
     let pos = tris.positions;
     let position = pos[i0] * bary.x + pos[i1] * bary.y + pos[i2] * bary.z;
