@@ -93,9 +93,10 @@ pub fn portrait_camera(anchor: Vec3, width: u32, height: u32) -> Camera {
 /// Asks the C library's allocator to keep the memory a frame frees for the next frame. A
 /// frame allocates a few megabytes at a time (the posed hair, the shadow map, the key light's
 /// per-vertex shares); glibc hands such blocks back to the kernel when they are freed and the
-/// next frame faults them in again, page by page: about 4 % of a 485×480 still
-/// (`docs/benchmarks.md`). Meant for a binary's start (the `facslab` binary and the render
-/// benchmark call it); it changes no output. Elsewhere than glibc it does nothing.
+/// next frame faults them in again, page by page: about 3 % of a 485×480 still
+/// (`docs/benchmarks.md`). The price: memory a process once used stays with it until it ends.
+/// Meant for a binary's start (the `facslab` binary and the render benchmark call it); it
+/// changes no output. Elsewhere than glibc it does nothing.
 pub fn keep_freed_memory() {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
     {
