@@ -294,15 +294,18 @@ fn parse_sex(text: &str) -> Result<crate::engine::people::Sex, String> {
 
 fn parse_beard_style(text: &str) -> Result<crate::engine::identity::BeardStyle, String> {
     use crate::engine::identity::BeardStyle;
-    BeardStyle::ALL.into_iter().find(|style| style.name() == text).ok_or_else(|| {
-        let names: Vec<&str> = BeardStyle::ALL.iter().map(|s| s.name()).collect();
-        format!("\"{text}\" is not one of {}", names.join(", "))
-    })
+    one_of(text, &BeardStyle::ALL, BeardStyle::name)
 }
 
 fn parse_origin(text: &str) -> Result<crate::engine::people::Origin, String> {
-    crate::engine::people::Origin::parse(text).ok_or_else(|| {
-        let names: Vec<&str> = crate::engine::people::Origin::ALL.iter().map(|o| o.name()).collect();
+    use crate::engine::people::Origin;
+    one_of(text, &Origin::ALL, Origin::name)
+}
+
+/// The value among `all` whose `name` is `text`, or a message listing the names there are.
+fn one_of<T: Copy>(text: &str, all: &[T], name: fn(T) -> &'static str) -> Result<T, String> {
+    all.iter().copied().find(|&value| name(value) == text).ok_or_else(|| {
+        let names: Vec<&str> = all.iter().map(|&value| name(value)).collect();
         format!("\"{text}\" is not one of {}", names.join(", "))
     })
 }
