@@ -239,7 +239,7 @@ pub fn render(scene: &[Triangles], camera: &Camera, shader: &impl Shader, option
 pub fn visibility(scene: &[Triangles], camera: &Camera, options: &RenderOptions) -> Visibility {
     let samples = gather_samples(scene, camera, options, true, None, |setup, id, depth| {
         let t = &setup.shade[id as usize];
-        Some(Hit { item: t.item, triangle: t.triangle, distance: 1.0 / depth })
+        Some(Hit { item: t.source.item, triangle: t.source.triangle, distance: 1.0 / depth })
     });
     let samples_per_pixel = options.samples_per_pixel.count();
     Visibility { width: camera.width, height: camera.height, samples_per_pixel, samples }
@@ -323,10 +323,8 @@ struct Source {
 /// Cold per-triangle data for shading.
 #[derive(Clone, Copy, Debug)]
 struct ShadeTri {
-    item: u32,
-    triangle: u32,
-    /// The triangle's vertex indices in its scene item.
-    vertex: [u32; 3],
+    /// The scene triangle this (possibly clipped) piece comes from.
+    source: Source,
     /// Perspective weights of the corners at pixel position (x, y): corner k's weight is
     /// `max(0, weight[k][0]·x + weight[k][1]·y + weight[k][2])` (its screen-space barycentric
     /// coordinate, up to a common factor, times its 1/w), over the snapped corners of the
@@ -591,8 +589,7 @@ impl Setup {
             let (dx, dy) = (pj[0] - pi[0], pj[1] - pi[1]);
             [-dy * inv_w[k], dx * inv_w[k], (dy * pi[0] - dx * pi[1]) * inv_w[k]]
         });
-        let Source { item, triangle, vertex } = source;
-        self.shade.push(ShadeTri { item, triangle, vertex, weight, bary });
+        self.shade.push(ShadeTri { source, weight, bary });
     }
 
     /// Fills the per-tile triangle lists, each in scene order.
@@ -1052,7 +1049,7 @@ impl Setup {
         if a == NO_TRIANGLE || b == NO_TRIANGLE {
             return false;
         }
-        let (ta, tb) = (&self.shade[a as usize], &self.shade[b as usize]);
+        let (ta, tb) = (&self.shade[a as usize].source, &self.shade[b as usize].source);
         if ta.item != tb.item {
             return false;
         }
@@ -1143,8 +1140,8 @@ fn fragment(t: &ShadeTri, scene: &[Triangles], camera: &Camera, x: f64, y: f64, 
     let sum = wts[0] + wts[1] + wts[2];
     let b = if sum > 0.0 && sum.is_finite() { wts.map(|w| w / sum) } else { [1.0 / 3.0; 3] };
     let bary = t.bary[0] * b[0] as f32 + t.bary[1] * b[1] as f32 + t.bary[2] * b[2] as f32;
-    let tris = &scene[t.item as usize];
-    let vertex = t.vertex;
+    let Source { item, triangle, vertex } = t.source;
+    let tris = &scene[item as usize];
     let [i0, i1, i2] = vertex.map(|i| i as usize);
     let pos = tris.positions;
     let position = pos[i0] * bary.x + pos[i1] * bary.y + pos[i2] * bary.z;
@@ -1166,7 +1163,7 @@ fn fragment(t: &ShadeTri, scene: &[Triangles], camera: &Camera, x: f64, y: f64, 
         normal,
         uv,
         part: tris.part,
-        triangle: t.triangle,
+        triangle,
         vertex,
         barycentric: bary,
         view_dir: (camera.eye - position).normalize_or_zero(),
