@@ -1503,6 +1503,9 @@ fn grow(root: &Root, n: u32, identity: &Identity, shape: &StyleShape, head: &Hea
     let layer = 0.008 + 0.05 * hash01(n, 21, 0) * (length / (length + 0.3));
     let phase = std::f32::consts::TAU * curl_phase(texture, root.rest, n);
     let (curl_radius, curl_period) = curl(texture);
+    // Hanging hair's waves stay clear of the face too; short hair's (cut at the temple) would
+    // stand out from it as spikes.
+    let waves_out = if shape.hangs_over_ears() { curl_radius } else { 0.0 };
     let lies_down_to_nape = shape.lies_down_to_nape();
     let mut points = vec![root.position];
     let mut centre = root.position;
@@ -1527,9 +1530,6 @@ fn grow(root: &Root, n: u32, identity: &Identity, shape: &StyleShape, head: &Hea
         // Hair that comes down onto a shoulder ends there, lying on it (carried on along the
         // shoulder's slope it slid out past the shoulder as a horizontal wisp).
         let lands = below_shoulder(next).is_some();
-        // Hanging hair's waves stay clear of the face too; short hair's (cut at the temple) would
-        // stand out from it as spikes.
-        let waves_out = if shape.hangs_over_ears() { curl_radius } else { 0.0 };
         next = keep_clear_of_face_and_shoulders(next, root.position.y, head, waves_out);
         direction = (next - centre).normalize_or(direction);
         centre = next;
