@@ -52,6 +52,11 @@ impl ContactSheet {
     }
 }
 
+/// The embedded caption font.
+fn font() -> FontRef<'static> {
+    FontRef::try_from_slice(FONT).expect("the embedded font is valid")
+}
+
 /// The size at which `text` fits in `max_width` pixels: `size` where it does, else as much
 /// smaller as it needs, down to [`CAPTION_SMALLEST`].
 fn fitted_size(text: &str, max_width: u32, size: f32) -> f32 {
@@ -70,7 +75,7 @@ fn text_width(text: &str, size: f32) -> f32 {
 
 /// Each glyph of `text` at `size` pixels with where it starts and where the next one starts.
 fn glyph_carets(text: &str, size: f32) -> Vec<(ab_glyph::GlyphId, f32, f32)> {
-    let font = FontRef::try_from_slice(FONT).expect("the embedded font is valid");
+    let font = font();
     let scaled = font.as_scaled(PxScale::from(size));
     let mut caret = 0.0f32;
     let mut previous = None;
@@ -90,7 +95,7 @@ fn glyph_carets(text: &str, size: f32) -> Vec<(ab_glyph::GlyphId, f32, f32)> {
 
 /// Draws light text on the sheet with its top-left at (x, y), clipped to `max_width`.
 pub fn draw_text(image: &mut RgbImage, text: &str, x: u32, y: u32, max_width: u32, size: f32) {
-    let font = FontRef::try_from_slice(FONT).expect("the embedded font is valid");
+    let font = font();
     let ascent = font.as_scaled(PxScale::from(size)).ascent();
     for (id, start, end) in glyph_carets(text, size) {
         if end > max_width as f32 {
