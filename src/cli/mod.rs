@@ -130,7 +130,7 @@ enum Command {
     },
 
     /// Render a labelled contact sheet for a visual audit.
-    #[command(after_help = "Examples:\n  facslab sheet -o aus.png                      # every AU at E, then L/R variants, on wm1\n  facslab sheet --set emotions -o emotions.png  # EmFACS prototypes at 100 % on all eight identities")]
+    #[command(after_help = "Examples:\n  facslab sheet -o aus.png                      # every AU at E, then L/R variants, on wm1\n  facslab sheet --set emotions -o emotions.png  # EmFACS prototypes at 100 % on every person")]
     Sheet {
         /// What to put on the sheet.
         #[arg(long, value_enum, default_value = "aus")]
