@@ -359,6 +359,12 @@ fn hair_key_light(hair: &Hair, seen: &[[u32; 3]], shadow: &ShadowMap, key: Vec3)
     light.flat_map(|sharp| [KeyShadow { reach: sharp, sharp, soft: 0.0 }; 2]).collect()
 }
 
+/// Whether skin with the painted features `painted` shows its pores and lines of age: not
+/// under the painted hair and not inside the mouth.
+fn shows_pores(painted: &SkinVertex) -> bool {
+    painted.hair <= 0.9 && painted.inside_mouth <= 0.5
+}
+
 /// Slowly varying painted features and region weights of one skin vertex, interpolated across
 /// triangles together.
 #[derive(Clone, Copy, Debug, Default)]
@@ -414,12 +420,8 @@ impl SkinVertex {
 /// channels' height fields.
 const AGE_LINES: [(&str, f32); 4] = [("crows_feet", 0.45), ("forehead_inner", 0.3), ("forehead_outer", 0.25), ("nasolabial", 0.45)];
 
-fn age_lines() -> &'static [(Relief, f32)] {
-    static LINES: OnceLock<Vec<(Relief, f32)>> = OnceLock::new();
-    LINES.get_or_init(|| {
-        AGE_LINES.iter().filter_map(|(name, depth)| PATTERNS.iter().find(|(n, _)| n == name).map(|(_, relief)| (*relief, *depth))).collect()
-    })
-}
+/// How far a unit slope of the relief tilts the skin's normal.
+const RELIEF_TILT: f32 = 0.006;
 
 /// How far up the eyeball (as the sine of the angle from the gaze) the upper lid's shadow
 /// retreats at full `lid_raise`: from the iris's top edge to above it.
@@ -537,8 +539,73 @@ fn key_share(share: f32, reaches: f32, wrap: f32) -> Vec3 {
 const SHADOW_EDGE_RED: f32 = 1.7;
 const SHADOW_EDGE_GREEN: f32 = 0.4;
 
-/// The appearance channels active in this frame, with their (left, right) weights.
-type ActivePatterns = Vec<(Relief, f32, f32)>;
+/// Furrows and bulges drawn as a bump on the skin: the appearance patterns present, each with
+/// its weights on the person's (left, right) side, and the union of their boxes (no relief
+/// outside it).
+struct ReliefSet {
+    patterns: Vec<(Relief, f32, f32)>,
+    bounds: [f32; 4],
+}
+
+impl ReliefSet {
+    /// The patterns of [`PATTERNS`] whose weights `weights(name)` gives are not both zero, in
+    /// that order.
+    fn new(weights: impl Fn(&str) -> (f32, f32)) -> ReliefSet {
+        let patterns: Vec<(Relief, f32, f32)> = PATTERNS
+            .iter()
+            .filter_map(|(name, pattern)| {
+                let (l, r) = weights(name);
+                (l != 0.0 || r != 0.0).then_some((*pattern, l, r))
+            })
+            .collect();
+        let bounds = patterns.iter().fold([f32::INFINITY, f32::NEG_INFINITY, f32::INFINITY, f32::NEG_INFINITY], |u, (r, _, _)| {
+            let b = r.bounds;
+            [u[0].min(b[0]), u[1].max(b[1]), u[2].min(b[2]), u[3].max(b[3])]
+        });
+        ReliefSet { patterns, bounds }
+    }
+
+    /// The AUs' patterns (a posed head's `appearance` channels), and the same with the lines
+    /// of age at rest of a person `age` (0 at 28 years, 1 at 70) added: an AU that deepens an
+    /// age line adds to that line's weight, so each furrow is worked out once per point.
+    fn of(appearance: &BTreeMap<String, (f32, f32)>, age: f32) -> (ReliefSet, ReliefSet) {
+        let au = |name: &str| appearance.get(name).copied().unwrap_or((0.0, 0.0));
+        let aged = |name: &str| {
+            let (l, r) = au(name);
+            let line = AGE_LINES.iter().find(|(n, _)| *n == name).map_or(0.0, |(_, depth)| depth * age);
+            (l + line, r + line)
+        };
+        (ReliefSet::new(au), ReliefSet::new(aged))
+    }
+
+    /// The height at rest position `p` (decimetres × pattern depth).
+    fn height(&self, p: Vec3) -> f32 {
+        let [x0, x1, y0, y1] = self.bounds;
+        let x = p.x.abs();
+        if x < x0 || x > x1 || p.y < y0 || p.y > y1 {
+            return 0.0;
+        }
+        let mirrored = Vec2::new(x, p.y);
+        let l = FaceShader::left_weight(p.x);
+        self.patterns.iter().map(|(relief, left, right)| (left * l + right * (1.0 - l)) * relief.at(mirrored)).sum()
+    }
+
+    /// The height at `p` and its slope along rest x and y (over 0.3 mm), or `None` where the
+    /// skin is flat.
+    fn bump(&self, p: Vec3) -> Option<(f32, Vec2)> {
+        if self.patterns.is_empty() {
+            return None;
+        }
+        let h = self.height(p);
+        if h == 0.0 {
+            return None;
+        }
+        let e = 0.003;
+        let gx = (self.height(p + Vec3::X * e) - h) / e;
+        let gy = (self.height(p + Vec3::Y * e) - h) / e;
+        Some((h, Vec2::new(gx, gy)))
+    }
+}
 
 /// Shades the head for one frame.
 pub struct FaceShader<'a> {
@@ -555,9 +622,11 @@ pub struct FaceShader<'a> {
     hair_key_light: KeyLight,
     /// The key light's shadow map, looked up per pixel where a shadow's edge crosses a triangle.
     shadow: Option<&'a ShadowMap>,
-    patterns: ActivePatterns,
-    /// The union of the active patterns' boxes: no relief outside it.
-    relief_bounds: [f32; 4],
+    /// The AUs' furrows and bulges, drawn where the skin shows no lines of age (under the
+    /// painted hair and inside the mouth).
+    relief: ReliefSet,
+    /// The same with the lines of age at rest, drawn elsewhere on the skin.
+    aged_relief: ReliefSet,
     model: &'a FaceModel,
     posed: &'a Posed,
     identity: &'a Identity,
@@ -575,17 +644,7 @@ pub struct FaceShader<'a> {
 
 impl<'a> FaceShader<'a> {
     pub fn new(model: &'a FaceModel, posed: &'a Posed, identity: &'a Identity, look: &Look, camera: &Camera) -> FaceShader<'a> {
-        let patterns: ActivePatterns = PATTERNS
-            .iter()
-            .filter_map(|(name, pattern)| {
-                let (l, r) = posed.appearance.get(*name).copied()?;
-                (l != 0.0 || r != 0.0).then_some((*pattern, l, r))
-            })
-            .collect();
-        let relief_bounds = patterns.iter().fold([f32::INFINITY, f32::NEG_INFINITY, f32::INFINITY, f32::NEG_INFINITY], |u, (r, _, _)| {
-            let b = r.bounds;
-            [u[0].min(b[0]), u[1].max(b[1]), u[2].min(b[2]), u[3].max(b[3])]
-        });
+        let (relief, aged_relief) = ReliefSet::of(&posed.appearance, smoothstep(28.0, 70.0, identity.age));
         let maps = SkinMaps::cached(model, identity);
         let key_light = KeyLight::open(posed.positions.len());
         let height = camera.height;
@@ -595,7 +654,7 @@ impl<'a> FaceShader<'a> {
         let (body, body_key_light, hair, hair_key_light) = (None, KeyLight::default(), None, KeyLight::default());
         let backdrop_kind = look.backdrop;
         let hairline = Hairline::of(identity);
-        FaceShader { maps, key_light, body, body_key_light, hair, hair_seen: &[], hair_key_light, shadow: None, patterns, relief_bounds, model, posed, identity, hairline, lighting, backdrop_kind, backdrop, eye, pixel_angle }
+        FaceShader { maps, key_light, body, body_key_light, hair, hair_seen: &[], hair_key_light, shadow: None, relief, aged_relief, model, posed, identity, hairline, lighting, backdrop_kind, backdrop, eye, pixel_angle }
     }
 
     /// Casts the key light's shadows from `shadow`, looked up once per vertex (offset along the
@@ -665,18 +724,6 @@ impl<'a> FaceShader<'a> {
         smoothstep(-0.03, 0.03, x)
     }
 
-    /// Total furrow/bulge height at a rest position (decimetres × pattern depth).
-    fn relief(&self, p: Vec3) -> f32 {
-        let [x0, x1, y0, y1] = self.relief_bounds;
-        let x = p.x.abs();
-        if x < x0 || x > x1 || p.y < y0 || p.y > y1 {
-            return 0.0;
-        }
-        let mirrored = Vec2::new(p.x.abs(), p.y);
-        let l = Self::left_weight(p.x);
-        self.patterns.iter().map(|(relief, left, right)| (left * l + right * (1.0 - l)) * relief.at(mirrored)).sum()
-    }
-
     fn lit(&self, f: &Fragment, normal: Vec3, albedo: Vec3, wrap: f32, specular: f32, shininess: f32) -> Vec3 {
         self.lit_reached(f, normal, albedo, Surface { wrap, specular, shininess, open: 1.0, tissue: true }, self.key_reach(f))
     }
@@ -688,15 +735,13 @@ impl<'a> FaceShader<'a> {
         let Lighting { lights, sky, ground, shadow_floor, .. } = &self.lighting;
         let ambient = sky.lerp(*ground, (0.5 - 0.5 * normal.y).clamp(0.0, 1.0));
         let mut colour = albedo * ambient * open;
+        // Wrapped diffuse lets light bleed past the terminator, red most (subsurface look).
+        let wraps = Vec3::new(wrap * 1.6, wrap, wrap * 0.8);
+        let per_wrap = Vec3::ONE / (Vec3::ONE + wraps);
         for (n, light) in lights.iter().enumerate() {
             let reach = if n == 0 { key_share(shadow_floor + (1.0 - shadow_floor) * key_reaches, key_reaches, if tissue { wrap } else { 0.0 }) } else { Vec3::splat(open) };
             let n_dot_l = normal.dot(light.direction);
-            // Wrapped diffuse lets light bleed past the terminator, red most (subsurface look).
-            let wrapped = Vec3::new(
-                ((n_dot_l + wrap * 1.6) / (1.0 + wrap * 1.6)).max(0.0),
-                ((n_dot_l + wrap) / (1.0 + wrap)).max(0.0),
-                ((n_dot_l + wrap * 0.8) / (1.0 + wrap * 0.8)).max(0.0),
-            );
+            let wrapped = ((Vec3::splat(n_dot_l) + wraps) * per_wrap).max(Vec3::ZERO);
             colour += albedo * light.colour * wrapped * reach;
             // Only the key light is bright enough to give a visible highlight.
             if n == 0 && n_dot_l > 0.0 && specular != 0.0 {
@@ -719,21 +764,18 @@ impl<'a> FaceShader<'a> {
         let lips = smoothstep(0.3, 0.7, painted.lips);
         let mouth = painted.inside_mouth;
 
-        // Surface relief: wrinkles and furrows as a bump map in rest space.
+        // Surface relief: wrinkles and furrows (the AUs', and the lines of age at rest where
+        // pores show too) as a bump map in rest space.
         let mut normal = f.normal;
         let mut crease = 0.0;
-        let h = if self.patterns.is_empty() { 0.0 } else { self.relief(rest) };
-        if h != 0.0 {
-            let e = 0.003;
-            let gx = (self.relief(rest + Vec3::X * e) - h) / e;
-            let gy = (self.relief(rest + Vec3::Y * e) - h) / e;
-            normal = (normal - 0.006 * (gx * Vec3::X + gy * Vec3::Y)).normalize();
+        let relief = if shows_pores(&painted) { &self.aged_relief } else { &self.relief };
+        if let Some((h, slope)) = relief.bump(rest) {
+            normal = (normal - RELIEF_TILT * slope.extend(0.0)).normalize();
             crease = (-h).max(0.0);
         }
 
-        // Micro relief (pores, stronger on the nose and cheeks) and the lines of age at rest.
-        let (pores, age_crease) = self.skin_relief(rest, &painted, &mut normal);
-        crease += age_crease;
+        // Micro relief: pores, stronger on the nose and cheeks.
+        let pores = self.pores(rest, &painted, &mut normal);
         let lip_crease = if lips > 0.0 { lip_lines(rest, lips, pixel, &mut normal) } else { 0.0 };
 
         // Albedo: skin with mottling, colour zones, lips, stubble, brows, hair, lid margins.
@@ -833,33 +875,19 @@ impl<'a> FaceShader<'a> {
         }
     }
 
-    /// Pores and the lines of age at rest (crow's feet, forehead, nasolabial folds, deeper
-    /// with age), as a bump on `normal`. Returns the pore depth (0..1) and the age crease.
-    fn skin_relief(&self, rest: Vec3, painted: &SkinVertex, normal: &mut Vec3) -> (f32, f32) {
-        if painted.hair > 0.9 || painted.inside_mouth > 0.5 {
-            return (0.0, 0.0);
+    /// Pores, as a bump on `normal` where they show ([`shows_pores`]). Returns the pore depth
+    /// (0..1).
+    fn pores(&self, rest: Vec3, painted: &SkinVertex, normal: &mut Vec3) -> f32 {
+        if !shows_pores(painted) {
+            return 0.0;
         }
         let face = 1.0 - painted.lips;
         let strength = face * (0.5 + 0.5 * (painted.cheek + painted.flush + painted.oily).min(1.0));
         let q = rest * 150.0;
         let (pore, slope) = value_noise_and_slope(q);
-        let mut bump = (slope * BUMP_OF_SLOPE).extend(0.0) * (0.9 * strength);
-        let age = smoothstep(28.0, 70.0, self.identity.age);
-        let mut crease = 0.0;
-        if age > 0.0 {
-            let m = Vec2::new(rest.x.abs(), rest.y);
-            let lines = |p: Vec2| age_lines().iter().map(|(relief, depth)| depth * relief.at(p)).sum::<f32>();
-            let h = lines(m);
-            if h != 0.0 {
-                let e = 0.003;
-                let hx = (lines(m + Vec2::new(e, 0.0)) - h) / e * rest.x.signum();
-                let hy = (lines(m + Vec2::new(0.0, e)) - h) / e;
-                bump += Vec3::new(hx, hy, 0.0) * (0.006 * age);
-                crease = (-h * age).max(0.0);
-            }
-        }
+        let bump = (slope * BUMP_OF_SLOPE).extend(0.0) * (0.9 * strength);
         *normal = (*normal - bump).normalize();
-        (smoothstep(0.55, 0.9, pore) * strength, crease)
+        smoothstep(0.55, 0.9, pore) * strength
     }
 
     /// Light that scattered under the skin: a red glow along the key light's terminator.
@@ -2466,6 +2494,37 @@ mod tests {
         for name in names {
             assert!(name == "lid_raise" || PATTERNS.iter().any(|(n, _)| *n == name), "shade:{name} draws nothing");
         }
+    }
+
+    /// The lines of age at rest are the AUs' furrows deepened: the aged relief is the AUs'
+    /// relief plus the lines' own (each pattern worked out once with the summed weight), and a
+    /// person younger than 28 has no lines.
+    #[test]
+    fn lines_of_age_add_to_the_aus_furrows() {
+        let appearance: BTreeMap<String, (f32, f32)> =
+            [("crows_feet", (0.8, 0.0)), ("nasolabial", (0.5, 0.5)), ("dimple", (0.0, 0.7))].map(|(n, w)| (n.to_string(), w)).into();
+        let age = 0.6;
+        let (au, aged) = ReliefSet::of(&appearance, age);
+        let (_, lines) = ReliefSet::of(&BTreeMap::new(), age);
+        assert_eq!((au.patterns.len(), lines.patterns.len(), aged.patterns.len()), (3, 4, 5));
+        let weights = |set: &ReliefSet| set.patterns.iter().map(|&(_, l, r)| (l, r)).collect::<Vec<_>>();
+        // In the order of PATTERNS: forehead_inner, forehead_outer, crows_feet, nasolabial, dimple.
+        let expected = [(0.18, 0.18), (0.15, 0.15), (0.8 + 0.27, 0.27), (0.5 + 0.27, 0.5 + 0.27), (0.0, 0.7)];
+        for ((l, r), (el, er)) in weights(&aged).into_iter().zip(expected) {
+            assert!((l - el).abs() < 1e-6 && (r - er).abs() < 1e-6, "weights ({l}, {r}), expected ({el}, {er})");
+        }
+        let mut deepest_line: f32 = 0.0;
+        for x in -70..=70 {
+            for y in 640..=810 {
+                let p = Vec3::new(x as f32 * 0.01, y as f32 * 0.01, 1.3);
+                let (a, l, both) = (au.height(p), lines.height(p), aged.height(p));
+                assert!((both - (a + l)).abs() <= 1e-5 * (1.0 + a.abs() + l.abs()), "at {p}: {both} for {a} + {l}");
+                deepest_line = deepest_line.min(l);
+            }
+        }
+        assert!(deepest_line < -0.2, "the lines of age are drawn: deepest {deepest_line}");
+        let (young_au, young_aged) = ReliefSet::of(&appearance, 0.0);
+        assert_eq!(weights(&young_aged), weights(&young_au), "no lines before 28");
     }
 
     #[test]
