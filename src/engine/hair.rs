@@ -32,7 +32,8 @@
 //!
 //! Per frame, [`Hair::seen_from`] gives the camera the cards with those behind the skull
 //! dropped, and [`Hair::shadow_casters`] gives the key light's shadow map the same with fewer
-//! rows where a card runs straight (within a texel of the map).
+//! rows where a card runs straight (within a texel of the map), drawn with the cards turned to
+//! the light and at least a texel wide ([`Hair::facing`]).
 //! Invariant: a pure function of its inputs in a fixed order: the same person gives the same
 //! cards, bytes and all, on any thread count.
 
@@ -1100,6 +1101,29 @@ impl Hair {
         triangles
     }
 
+    /// The card vertices turned to face a light at `eye`, for its shadow map: each row's two
+    /// vertices across the strand and across the line to the light, as far apart as on the
+    /// camera's card and at least a texel of the map ([`SHADOW_CHORD`]). A card stands for a
+    /// lock, which casts a shadow of its width whichever way its card is turned to the camera.
+    /// Turned edge-on to the light, or narrowing to its tip, a card's shadow fell between the
+    /// map's texels, in a ladder of small squares on the skin.
+    pub fn facing(&self, eye: Vec3) -> Vec<Vec3> {
+        let rows = self.model.rows_per_card();
+        let mut turned = Vec::with_capacity(self.positions.len());
+        for card in self.positions.chunks_exact(2 * rows) {
+            let centre = |k: usize| (card[2 * k] + card[2 * k + 1]) * 0.5;
+            for k in 0..rows {
+                let (a, b) = (card[2 * k], card[2 * k + 1]);
+                let along = centre((k + 1).min(rows - 1)) - centre(k.saturating_sub(1));
+                let across = along.cross(eye - centre(k)).normalize_or_zero() * ((b - a).length() * 0.5).max(0.5 * SHADOW_CHORD);
+                // A card running straight at the light keeps its own edges.
+                let (a, b) = if across == Vec3::ZERO { (a, b) } else { (centre(k) - across, centre(k) + across) };
+                turned.extend([a, b]);
+            }
+        }
+        turned
+    }
+
     /// The middle of card row `row` (between its two vertices).
     fn row_centre(&self, row: u32) -> Vec3 {
         (self.positions[2 * row as usize] + self.positions[2 * row as usize + 1]) * 0.5
@@ -1878,6 +1902,48 @@ mod tests {
             if ["wm1", "wf1", "saf1"].contains(&id) {
                 assert!(casters.len() * 3 <= seen * 2, "{id}: {} casters for {seen} triangles seen", casters.len());
             }
+        }
+    }
+
+    /// The cards the shadow map draws face the light: each row's two vertices lie on a line
+    /// through the row's middle across the line to the light (within 10⁻³ of its length), as far
+    /// apart as the camera's card or a texel of the map, whichever is more; the strand's path is
+    /// the same.
+    #[test]
+    fn shadow_casters_face_the_light_at_least_a_texel_wide() {
+        let model = FaceModel::embedded();
+        for id in ["wm1", "wf1", "bf1", "hlf2"] {
+            let (identity, posed) = neutral(id);
+            let hair = HairModel::cached(model, &identity, &posed.neutral).posed(model, &posed);
+            let eye = Vec3::new(40.0, 50.0, 30.0);
+            let turned = hair.facing(eye);
+            assert_eq!(turned.len(), hair.positions.len());
+            let rows = hair.model.rows_per_card();
+            let (mut widened, mut kept) = (0, 0);
+            for (card, lit_card) in hair.positions.chunks_exact(2 * rows).zip(turned.chunks_exact(2 * rows)) {
+                let centre = |k: usize| (card[2 * k] + card[2 * k + 1]) * 0.5;
+                for k in 0..rows {
+                    let (seen, lit) = (&card[2 * k..2 * k + 2], &lit_card[2 * k..2 * k + 2]);
+                    if seen == lit {
+                        // Only a row with no direction of its own keeps its edges: where the
+                        // strand has ended (its points collapsed onto its end).
+                        let along = centre((k + 1).min(rows - 1)) - centre(k.saturating_sub(1));
+                        assert!(along.length() < 1e-6, "{id}: a row with a direction kept its edges");
+                        kept += 1;
+                        continue;
+                    }
+                    let (middle, across) = ((lit[0] + lit[1]) * 0.5, lit[1] - lit[0]);
+                    assert!(middle.distance(centre(k)) < 1e-5, "{id}: a row's middle moved");
+                    let to_light = (eye - middle).normalize();
+                    assert!(across.normalize().dot(to_light).abs() < 1e-3, "{id}: a row's card is not across the line to the light");
+                    let (width, wanted) = (across.length(), seen[0].distance(seen[1]).max(SHADOW_CHORD));
+                    assert!((width - wanted).abs() <= 1e-5 + 1e-4 * wanted, "{id}: a row {width} wide, {wanted} wanted");
+                    widened += usize::from(seen[0].distance(seen[1]) < SHADOW_CHORD);
+                }
+            }
+            let all = hair.positions.len() / 2;
+            assert!(widened > 0 && widened < all, "{id}: {widened} of {all} rows widened to a texel");
+            println!("{id}: {widened} of {all} rows widened, {kept} ended");
         }
     }
 

@@ -177,11 +177,12 @@ impl Scene {
 
     /// The scene items as the camera sees them: the head's parts, the body and the hair.
     fn items<'a>(&'a self, posed: &'a Posed) -> Vec<Triangles<'a>> {
-        self.items_with_hair(posed, &self.hair_seen)
+        self.items_with_hair(posed, &self.hair.positions, &self.hair_seen)
     }
 
-    /// The scene items with the hair's triangles given by `hair_triangles`.
-    fn items_with_hair<'a>(&'a self, posed: &'a Posed, hair_triangles: &'a [[u32; 3]]) -> Vec<Triangles<'a>> {
+    /// The scene items with the hair's cards at `hair_positions` (its vertices, as
+    /// [`hair::Hair::positions`] or turned) and its triangles given by `hair_triangles`.
+    fn items_with_hair<'a>(&'a self, posed: &'a Posed, hair_positions: &'a [Vec3], hair_triangles: &'a [[u32; 3]]) -> Vec<Triangles<'a>> {
         let mut items: Vec<Triangles<'a>> = Part::ALL
             .iter()
             .map(|&part| Triangles {
@@ -198,7 +199,7 @@ impl Scene {
         let hair = &self.hair;
         // Hair cards carry the strand direction where other items carry normals.
         items.push(Triangles {
-            positions: &hair.positions,
+            positions: hair_positions,
             normals: &hair.tangents,
             uvs: &hair.model.uvs,
             indices: hair_triangles,
@@ -240,11 +241,13 @@ pub fn render_posed(posed: &Posed, identity: &Identity, settings: FrameSettings)
     let lighting = look.light.lighting();
     let key = lighting.lights[0].direction;
     let light_centre = posed.anchor + Vec3::new(0.0, -0.3, 0.0);
-    // The light sees other hair than the camera does, and its map needs less detail.
-    let hair_lit = holder.hair.shadow_casters(shade::ShadowMap::eye(key, light_centre));
+    // The light sees other hair than the camera does, its map needs less detail, and the
+    // cards cast shadows turned to it.
+    let light_eye = shade::ShadowMap::eye(key, light_centre);
+    let (hair_lit, hair_turned) = (holder.hair.shadow_casters(light_eye), holder.hair.facing(light_eye));
     // Lashes are too thin to cast visible shadows; at shadow-map resolution they would smear.
     let casters: Vec<Triangles> = holder
-        .items_with_hair(posed, &hair_lit)
+        .items_with_hair(posed, &hair_turned, &hair_lit)
         .into_iter()
         .filter(|t| !matches!(Part::from_id(t.part), Some(Part::LashesUpper | Part::LashesLower)))
         .collect();
