@@ -1116,7 +1116,8 @@ impl Hair {
                 let (a, b) = (card[2 * k], card[2 * k + 1]);
                 let along = centre((k + 1).min(rows - 1)) - centre(k.saturating_sub(1));
                 let across = along.cross(eye - centre(k)).normalize_or_zero() * ((b - a).length() * 0.5).max(0.5 * SHADOW_CHORD);
-                // A card running straight at the light keeps its own edges.
+                // A row with no direction of its own (where the strand has ended, its points
+                // collapsed) or running straight at the light keeps its own edges.
                 let (a, b) = if across == Vec3::ZERO { (a, b) } else { (centre(k) - across, centre(k) + across) };
                 turned.extend([a, b]);
             }
