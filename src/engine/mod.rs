@@ -481,6 +481,54 @@ mod tests {
         assert!(failures.is_empty(), "{}", failures.join("\n"));
     }
 
+    /// AU19 at E pushes the tongue out between the lips, where it is lit as the lips are: on
+    /// each of the eight evaluation people the camera sees the tongue over whole pixels at 19E
+    /// (more than at 19C), and those pixels are at least 0.7 as bright as the lips' red beside
+    /// them (the tongue used to be dimmed by where it rests, deep in the mouth: about half).
+    #[test]
+    fn au19_shows_the_tongue_lit_out_of_the_mouth() {
+        let mut failures = Vec::new();
+        for id in ["wm1", "wm2", "bm1", "bm2", "wf1", "wf2", "bf1", "bf2"] {
+            let identity = IdentityTable::built_in().get(id).unwrap();
+            let (c, _) = tongue_and_lip_pixels("19C", identity);
+            let (tongue, lips) = tongue_and_lip_pixels("19E", identity);
+            let mean = |v: &[f32]| v.iter().sum::<f32>() / v.len().max(1) as f32;
+            let ratio = mean(&tongue) / mean(&lips);
+            println!("{id}: tongue pixels at 19C {}, 19E {}; brightness against the lips {ratio:.2}", c.len(), tongue.len());
+            if !(tongue.len() >= 40 && tongue.len() > c.len() && ratio >= 0.7) {
+                failures.push(format!("{id}: tongue pixels 19C {}, 19E {}, brightness {ratio:.2}", c.len(), tongue.len()));
+            }
+        }
+        assert!(failures.is_empty(), "{}", failures.join("\n"));
+    }
+
+    /// The brightness (mean of R, G, B) of the pixels at 242×240 whose every sample the camera
+    /// sees on the tongue, and of those it sees on the lips' red.
+    fn tongue_and_lip_pixels(expression: &str, identity: &Identity) -> (Vec<f32>, Vec<f32>) {
+        let model = FaceModel::embedded();
+        let lips = model.region("lips").unwrap();
+        let expression = Catalog::built_in().parse(expression).unwrap();
+        let posed = pose_expression(&expression, identity).unwrap();
+        let camera = portrait_camera(posed.anchor, 242, 240);
+        let scene = Scene::new(&posed, identity, camera.eye, 0.0);
+        let skin = &model.part(Part::Skin).triangles;
+        let item = |part: Part| Part::ALL.iter().position(|&p| p == part).unwrap() as u32;
+        let visibility = raster::visibility(&scene.items(&posed), &camera, &still_options(Some(1)));
+        let image = render_still(&expression, identity, FrameSettings { width: 242, height: 240, threads: Some(1), ..Default::default() }).unwrap();
+        let is_red = |hit: &raster::Hit| hit.item == item(Part::Skin) && skin[hit.triangle as usize].iter().map(|&v| lips[v as usize]).sum::<f32>() / 3.0 >= 0.5;
+        let (mut tongue, mut red) = (Vec::new(), Vec::new());
+        for (y, x) in (0..240).flat_map(|y| (0..242).map(move |x| (y, x))) {
+            let hits = visibility.pixel(x, y);
+            let brightness = image.pixel(x, y).iter().map(|&c| f32::from(c)).sum::<f32>() / 3.0;
+            if hits.iter().all(|h| h.is_some_and(|h| h.item == item(Part::Tongue))) {
+                tongue.push(brightness);
+            } else if hits.iter().all(|h| h.as_ref().is_some_and(is_red)) {
+                red.push(brightness);
+            }
+        }
+        (tongue, red)
+    }
+
     /// The 54 combinations of HapFACS Table 4 and the EmFACS prototypes render.
     #[test]
     fn combinations_render() {

@@ -62,6 +62,29 @@ pub struct Posed {
     pub anchor: Vec3,
     /// Appearance channels (`shade:NAME`) as (left, right) weights.
     pub appearance: BTreeMap<String, (f32, f32)>,
+    /// How the head was turned, if it was: the shader takes points inside the head back to where
+    /// they are in the head's own frame.
+    pub head_turn: Option<HeadTurn>,
+}
+
+/// A rigid turn of the head (and the top of the neck) about its pivot.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HeadTurn {
+    rotation: Mat3,
+    pivot: Vec3,
+    shift: Vec3,
+}
+
+impl HeadTurn {
+    /// `p` in the head's frame carried to where the turn puts it.
+    pub fn apply(&self, p: Vec3) -> Vec3 {
+        self.rotation * (p - self.pivot) + self.pivot + self.shift
+    }
+
+    /// A point of the turned head taken back to the head's own frame.
+    pub fn undo(&self, p: Vec3) -> Vec3 {
+        self.rotation.transpose() * (p - self.pivot - self.shift) + self.pivot
+    }
 }
 
 /// The per-identity data that does not change between frames.
@@ -214,9 +237,9 @@ pub fn pose(model: &FaceModel, prepared: &PreparedIdentity, values: &ChannelValu
     let anchor = (prepared.eye_centres[0] + prepared.eye_centres[1]) / 2.0;
     rotate_jaw(model, &mut positions, anchor + JAW_PIVOT, values.rigid(&Channel::JawOpen))?;
     let mut eyes = turn_eyes(model, prepared, &mut positions, values);
-    turn_head(head_weights(model)?, anchor + HEAD_PIVOT, &mut positions, &mut eyes, values);
+    let head_turn = turn_head(head_weights(model)?, anchor + HEAD_PIVOT, &mut positions, &mut eyes, values);
     let normals = vertex_normals(model, &positions);
-    Ok(Posed { positions, normals, neutral: Arc::clone(neutral), eyes, anchor, appearance })
+    Ok(Posed { positions, normals, neutral: Arc::clone(neutral), eyes, anchor, appearance, head_turn })
 }
 
 fn part_range(model: &FaceModel, part: Part) -> std::ops::Range<usize> {
@@ -471,25 +494,25 @@ fn head_weights(model: &FaceModel) -> Result<&'static [f32], AssetError> {
     Ok(WEIGHTS.get_or_init(|| still.iter().map(|s| (1.0 - s).clamp(0.0, 1.0)).collect()))
 }
 
-fn turn_head(weights: &[f32], pivot: Vec3, positions: &mut [Vec3], eyes: &mut [EyeFrame; 2], values: &ChannelValues) {
+fn turn_head(weights: &[f32], pivot: Vec3, positions: &mut [Vec3], eyes: &mut [EyeFrame; 2], values: &ChannelValues) -> Option<HeadTurn> {
     let yaw = values.rigid(&Channel::HeadYaw).to_radians();
     let pitch = values.rigid(&Channel::HeadPitch).to_radians();
     let roll = values.rigid(&Channel::HeadRoll).to_radians();
     let forward = values.rigid(&Channel::HeadForward);
     if yaw == 0.0 && pitch == 0.0 && roll == 0.0 && forward == 0.0 {
-        return;
+        return None;
     }
     let rotation = Mat3::from_rotation_y(yaw) * Mat3::from_rotation_x(pitch) * Mat3::from_rotation_z(-roll);
-    let shift = Vec3::new(0.0, 0.0, forward);
-    let transform = |p: Vec3| rotation * (p - pivot) + pivot + shift;
+    let turn = HeadTurn { rotation, pivot, shift: Vec3::new(0.0, 0.0, forward) };
     for (p, &w) in positions.iter_mut().zip(weights) {
         if w > 0.0 {
-            *p = p.lerp(transform(*p), w);
+            *p = p.lerp(turn.apply(*p), w);
         }
     }
     for eye in eyes.iter_mut() {
-        *eye = EyeFrame { centre: transform(eye.centre), gaze: rotation * eye.gaze, up: rotation * eye.up };
+        *eye = EyeFrame { centre: turn.apply(eye.centre), gaze: rotation * eye.gaze, up: rotation * eye.up };
     }
+    Some(turn)
 }
 
 /// Area-weighted vertex normals over each part's triangles.

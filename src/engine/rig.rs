@@ -405,7 +405,7 @@ mod tests {
     #[test]
     fn rigid_channels_average_the_sides() {
         assert_eq!(values("51").rigid(&Channel::HeadYaw), 30.0);
-        assert_eq!(values("19B").rigid(&Channel::JawOpen), 0.3 * 6.0);
+        assert_eq!(values("19B").rigid(&Channel::JawOpen), 0.3 * 10.0);
         assert!(values("0").sided().is_empty());
     }
 

@@ -607,6 +607,13 @@ impl ReliefSet {
     }
 }
 
+/// The tongue's albedo (linear RGB).
+const TONGUE: Vec3 = Vec3::new(0.45, 0.12, 0.12);
+/// Papillae per decimetre on the tongue (each about half a millimetre).
+const PAPILLAE_PER_DM: f32 = 200.0;
+/// Half the width of the groove down the middle of the tongue's back (decimetres).
+const TONGUE_GROOVE_HALF_WIDTH: f32 = 0.02;
+
 /// Shades the head for one frame.
 pub struct FaceShader<'a> {
     maps: Arc<SkinMaps>,
@@ -1088,8 +1095,36 @@ impl<'a> FaceShader<'a> {
         reflect(key, 900.0, 1.6) + reflect(fill, 300.0, 0.5)
     }
 
-    fn shade_mouth_part(&self, f: &Fragment, base: Vec3, specular: f32) -> Vec3 {
-        self.lit(f, f.normal, base, 0.2, specular, 40.0) * Self::inside_mouth(self.rest(f))
+    /// The tongue: as dim as the mouth around it where it lies inside, and lit as the lips
+    /// are where the expression has pushed it out between them (AU19), so its depth is taken
+    /// where it is now in the head, not where it rests. Its surface is moist (a sharp sheen),
+    /// rough with papillae finer than a millimetre, with a shallow groove down the middle of
+    /// its back, and its edges, where it turns from the viewer, a deeper red.
+    fn shade_tongue(&self, f: &Fragment) -> Vec3 {
+        let rest = self.rest(f);
+        let q = rest * PAPILLAE_PER_DM;
+        let (papilla, slope) = value_noise_and_slope(q);
+        let mut normal = (f.normal - (slope * BUMP_OF_SLOPE * 0.6).extend(0.0)).normalize();
+        // The median groove: the back's two halves meet in a shallow furrow.
+        let groove = (-(rest.x / TONGUE_GROOVE_HALF_WIDTH).powi(2)).exp() * smoothstep(0.2, 0.6, f.normal.y);
+        normal = (normal - Vec3::X * rest.x.signum() * 0.3 * groove).normalize();
+        let cells = self.pixel_width(f.position) * PAPILLAE_PER_DM;
+        let speckle = seen_over(papilla, cells);
+        let facing = f.normal.dot(f.view_dir).abs();
+        let albedo = TONGUE * (0.85 + 0.3 * speckle) * (1.0 - 0.15 * groove) * Vec3::new(1.0, 0.7 + 0.3 * facing, 0.7 + 0.3 * facing);
+        self.lit(f, normal, albedo, 0.3, 0.45, 60.0) * Self::inside_mouth(self.tongue_now(f, rest))
+    }
+
+    /// Where tongue fragment `f` (at rest `rest`) is now in the head's own frame: its rest
+    /// position moved as the pose moved its corners.
+    fn tongue_now(&self, f: &Fragment, rest: Vec3) -> Vec3 {
+        let posed = self.posed;
+        let moved = f.vertex.map(|v| {
+            let now = posed.positions[v as usize];
+            posed.head_turn.map_or(now, |turn| turn.undo(now)) - posed.neutral[v as usize]
+        });
+        let w = f.barycentric;
+        rest + moved[0] * w.x + moved[1] * w.y + moved[2] * w.z
     }
 
     /// Inside the mouth little light arrives: everything dimmed, and more with depth.
@@ -1220,7 +1255,7 @@ impl Shader for FaceShader<'_> {
             Some(Part::Skin) | None => self.shade_skin(f),
             Some(part @ (Part::EyeLeft | Part::EyeRight)) => self.shade_eye(f, Self::eye_index(part)),
             Some(Part::TeethUpper | Part::TeethLower) => self.shade_teeth(f),
-            Some(Part::Tongue) => self.shade_mouth_part(f, Vec3::new(0.45, 0.12, 0.12), 0.3),
+            Some(Part::Tongue) => self.shade_tongue(f),
             Some(Part::LashesUpper) => self.shade_lashes(f, &UPPER_LASHES),
             Some(Part::LashesLower) => self.shade_lashes(f, &LOWER_LASHES),
         }
