@@ -529,6 +529,41 @@ mod tests {
         (tongue, red)
     }
 
+    /// FACS: AU13, the sharp lip puller, tightens the lips as it pulls their corners up, so
+    /// the red narrows (AU12 draws the corners up and back over a broad smile instead). On each
+    /// of the eight evaluation people the lips' red the camera sees down the middle of the mouth
+    /// is at 13E at most 0.8 as tall as at rest (0.58–0.73; when the expression target alone
+    /// pulled the corners up and parted the lips over the teeth, 0.88–0.90).
+    #[test]
+    fn au13_narrows_the_red_of_the_lips() {
+        let mut failures = Vec::new();
+        for id in ["wm1", "wm2", "bm1", "bm2", "wf1", "wf2", "bf1", "bf2"] {
+            let identity = IdentityTable::built_in().get(id).unwrap();
+            let [rest, sharp] = ["0", "13E"].map(|x| red_down_the_middle(x, identity));
+            let share = sharp as f32 / rest as f32;
+            println!("{id}: red samples down the middle at rest {rest}, 13E {sharp} ({share:.3} of rest)");
+            if share > 0.8 {
+                failures.push(format!("{id}: rest {rest}, 13E {sharp} ({share:.3})"));
+            }
+        }
+        assert!(failures.is_empty(), "{}", failures.join("\n"));
+    }
+
+    /// The samples at 242×240 of the lips' red in the five pixel columns at the middle of the
+    /// picture (the face's midline).
+    fn red_down_the_middle(expression: &str, identity: &Identity) -> usize {
+        let model = FaceModel::embedded();
+        let lips = model.region("lips").unwrap();
+        let posed = pose_expression(&Catalog::built_in().parse(expression).unwrap(), identity).unwrap();
+        let camera = portrait_camera(posed.anchor, 242, 240);
+        let scene = Scene::new(&posed, identity, camera.eye, 0.0);
+        let skin = &model.part(Part::Skin).triangles;
+        let skin_item = Part::ALL.iter().position(|&p| p == Part::Skin).unwrap() as u32;
+        let visibility = raster::visibility(&scene.items(&posed), &camera, &still_options(Some(1)));
+        let is_red = |hit: &raster::Hit| hit.item == skin_item && skin[hit.triangle as usize].iter().map(|&v| lips[v as usize]).sum::<f32>() / 3.0 >= 0.5;
+        (119..124).flat_map(|x| (0..240).map(move |y| (x, y))).map(|(x, y)| visibility.pixel(x, y).iter().flatten().filter(|hit| is_red(hit)).count()).sum()
+    }
+
     /// The 54 combinations of HapFACS Table 4 and the EmFACS prototypes render.
     #[test]
     fn combinations_render() {
