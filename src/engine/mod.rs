@@ -418,21 +418,42 @@ mod tests {
         mouth_samples(expression, identity).0
     }
 
+    /// What the camera sees of a frontal 242×240 picture of an expression: which scene item and
+    /// triangle each sample hits, and which skin triangles are the lips' red (corners, on
+    /// average, at least half lip paint).
+    struct MouthView {
+        visibility: raster::Visibility,
+        red: Vec<bool>,
+    }
+
+    impl MouthView {
+        fn of(expression: &Expression, identity: &Identity) -> MouthView {
+            let model = FaceModel::embedded();
+            let lips = model.region("lips").unwrap();
+            let posed = pose_expression(expression, identity).unwrap();
+            let camera = portrait_camera(posed.anchor, 242, 240);
+            let scene = Scene::new(&posed, identity, camera.eye, 0.0);
+            let visibility = raster::visibility(&scene.items(&posed), &camera, &still_options(Some(1)));
+            let red = model.part(Part::Skin).triangles.iter().map(|t| t.iter().map(|&v| lips[v as usize]).sum::<f32>() / 3.0 >= 0.5).collect();
+            MouthView { visibility, red }
+        }
+
+        /// The scene item of a part of the head: the scene's items are the head's parts in
+        /// `Part::ALL` order, then the body and the hair.
+        fn item(part: Part) -> u32 {
+            Part::ALL.iter().position(|&p| p == part).unwrap() as u32
+        }
+
+        fn is_red(&self, hit: &raster::Hit) -> bool {
+            hit.item == Self::item(Part::Skin) && self.red[hit.triangle as usize]
+        }
+    }
+
     /// The samples at 242×240 of the lips' red and of the upper teeth that the camera sees.
     fn mouth_samples(expression: &str, identity: &Identity) -> (usize, usize) {
-        let model = FaceModel::embedded();
-        let lips = model.region("lips").unwrap();
-        let posed = pose_expression(&Catalog::built_in().parse(expression).unwrap(), identity).unwrap();
-        let camera = portrait_camera(posed.anchor, 242, 240);
-        let scene = Scene::new(&posed, identity, camera.eye, 0.0);
-        let skin = &model.part(Part::Skin).triangles;
-        // The scene's items are the head's parts in `Part::ALL` order, then the body and the hair.
-        let skin_item = Part::ALL.iter().position(|&p| p == Part::Skin).unwrap() as u32;
-        let teeth_item = Part::ALL.iter().position(|&p| p == Part::TeethUpper).unwrap() as u32;
-        let visibility = raster::visibility(&scene.items(&posed), &camera, &still_options(Some(1)));
-        let is_red = |triangle: u32| skin[triangle as usize].iter().map(|&v| lips[v as usize]).sum::<f32>() / 3.0 >= 0.5;
-        let hits = || visibility.samples.iter().flatten();
-        (hits().filter(|hit| hit.item == skin_item && is_red(hit.triangle)).count(), hits().filter(|hit| hit.item == teeth_item).count())
+        let view = MouthView::of(&Catalog::built_in().parse(expression).unwrap(), identity);
+        let hits = || view.visibility.samples.iter().flatten();
+        (hits().filter(|hit| view.is_red(hit)).count(), hits().filter(|hit| hit.item == MouthView::item(Part::TeethUpper)).count())
     }
 
     /// A beard leaves the mouth in view: it grows on the face, not inside the mouth, its
@@ -505,24 +526,16 @@ mod tests {
     /// The brightness (mean of R, G, B) of the pixels at 242×240 whose every sample the camera
     /// sees on the tongue, and of those it sees on the lips' red.
     fn tongue_and_lip_pixels(expression: &str, identity: &Identity) -> (Vec<f32>, Vec<f32>) {
-        let model = FaceModel::embedded();
-        let lips = model.region("lips").unwrap();
         let expression = Catalog::built_in().parse(expression).unwrap();
-        let posed = pose_expression(&expression, identity).unwrap();
-        let camera = portrait_camera(posed.anchor, 242, 240);
-        let scene = Scene::new(&posed, identity, camera.eye, 0.0);
-        let skin = &model.part(Part::Skin).triangles;
-        let item = |part: Part| Part::ALL.iter().position(|&p| p == part).unwrap() as u32;
-        let visibility = raster::visibility(&scene.items(&posed), &camera, &still_options(Some(1)));
+        let view = MouthView::of(&expression, identity);
         let image = render_still(&expression, identity, FrameSettings { width: 242, height: 240, threads: Some(1), ..Default::default() }).unwrap();
-        let is_red = |hit: &raster::Hit| hit.item == item(Part::Skin) && skin[hit.triangle as usize].iter().map(|&v| lips[v as usize]).sum::<f32>() / 3.0 >= 0.5;
         let (mut tongue, mut red) = (Vec::new(), Vec::new());
         for (y, x) in (0..240).flat_map(|y| (0..242).map(move |x| (y, x))) {
-            let hits = visibility.pixel(x, y);
+            let hits = view.visibility.pixel(x, y);
             let brightness = image.pixel(x, y).iter().map(|&c| f32::from(c)).sum::<f32>() / 3.0;
-            if hits.iter().all(|h| h.is_some_and(|h| h.item == item(Part::Tongue))) {
+            if hits.iter().all(|h| h.is_some_and(|h| h.item == MouthView::item(Part::Tongue))) {
                 tongue.push(brightness);
-            } else if hits.iter().all(|h| h.as_ref().is_some_and(is_red)) {
+            } else if hits.iter().all(|h| h.as_ref().is_some_and(|h| view.is_red(h))) {
                 red.push(brightness);
             }
         }
@@ -552,16 +565,8 @@ mod tests {
     /// The samples at 242×240 of the lips' red in the five pixel columns at the middle of the
     /// picture (the face's midline).
     fn red_down_the_middle(expression: &str, identity: &Identity) -> usize {
-        let model = FaceModel::embedded();
-        let lips = model.region("lips").unwrap();
-        let posed = pose_expression(&Catalog::built_in().parse(expression).unwrap(), identity).unwrap();
-        let camera = portrait_camera(posed.anchor, 242, 240);
-        let scene = Scene::new(&posed, identity, camera.eye, 0.0);
-        let skin = &model.part(Part::Skin).triangles;
-        let skin_item = Part::ALL.iter().position(|&p| p == Part::Skin).unwrap() as u32;
-        let visibility = raster::visibility(&scene.items(&posed), &camera, &still_options(Some(1)));
-        let is_red = |hit: &raster::Hit| hit.item == skin_item && skin[hit.triangle as usize].iter().map(|&v| lips[v as usize]).sum::<f32>() / 3.0 >= 0.5;
-        (119..124).flat_map(|x| (0..240).map(move |y| (x, y))).map(|(x, y)| visibility.pixel(x, y).iter().flatten().filter(|hit| is_red(hit)).count()).sum()
+        let view = MouthView::of(&Catalog::built_in().parse(expression).unwrap(), identity);
+        (119..124).flat_map(|x| (0..240).map(move |y| (x, y))).map(|(x, y)| view.visibility.pixel(x, y).iter().flatten().filter(|hit| view.is_red(hit)).count()).sum()
     }
 
     /// The 54 combinations of HapFACS Table 4 and the EmFACS prototypes render.
