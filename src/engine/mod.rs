@@ -277,6 +277,7 @@ mod tests {
     use super::*;
     use crate::facs::{Catalog, IntensityLevel};
     use identity::IdentityTable;
+    use glam::Vec2;
 
     fn small() -> FrameSettings {
         FrameSettings { width: 32, height: 32, threads: Some(1), ..Default::default() }
@@ -502,22 +503,25 @@ mod tests {
         assert!(failures.is_empty(), "{}", failures.join("\n"));
     }
 
-    /// AU19 at E pushes the tongue out between the lips, where it is lit as the lips are: on
-    /// each of the eight evaluation people the camera sees the tongue over whole pixels at 19E
-    /// (more than at 19C), and those pixels are at least 0.7 as bright as the lips' red beside
-    /// them (the tongue used to be dimmed by where it rests, deep in the mouth: about half).
+    /// AU19 pushes the tongue out between the lips, where it is lit as the lips are: on each of
+    /// the eight evaluation people the camera sees the tongue over whole pixels from B on (at
+    /// 242×240, at least 10 at B, between the lips; at least 40 at C, FACS's "clearly shown past
+    /// the teeth": the tongue used to stay behind the lips until D), more at each level, and at E those pixels are at least 0.7 as bright as the lips' red
+    /// beside them (the tongue used to be dimmed by where it rests, deep in the mouth: about half).
     #[test]
     fn au19_shows_the_tongue_lit_out_of_the_mouth() {
         let mut failures = Vec::new();
         for id in ["wm1", "wm2", "bm1", "bm2", "wf1", "wf2", "bf1", "bf2"] {
             let identity = IdentityTable::built_in().get(id).unwrap();
+            let (b, _) = tongue_and_lip_pixels("19B", identity);
             let (c, _) = tongue_and_lip_pixels("19C", identity);
             let (tongue, lips) = tongue_and_lip_pixels("19E", identity);
             let mean = |v: &[f32]| v.iter().sum::<f32>() / v.len().max(1) as f32;
             let ratio = mean(&tongue) / mean(&lips);
-            println!("{id}: tongue pixels at 19C {}, 19E {}; brightness against the lips {ratio:.2}", c.len(), tongue.len());
-            if !(tongue.len() >= 40 && tongue.len() > c.len() && ratio >= 0.7) {
-                failures.push(format!("{id}: tongue pixels 19C {}, 19E {}, brightness {ratio:.2}", c.len(), tongue.len()));
+            let counts = format!("tongue pixels 19B {}, 19C {}, 19E {}; brightness at E against the lips {ratio:.2}", b.len(), c.len(), tongue.len());
+            println!("{id}: {counts}");
+            if !(b.len() >= 10 && c.len() >= 40 && b.len() < c.len() && tongue.len() > c.len() && ratio >= 0.7) {
+                failures.push(format!("{id}: {counts}"));
             }
         }
         assert!(failures.is_empty(), "{}", failures.join("\n"));
@@ -540,6 +544,54 @@ mod tests {
             }
         }
         (tongue, red)
+    }
+
+    /// The brightness of the skin the camera sees at 242×240 (whole pixels) within 12 mm (by
+    /// rest position, mirrored) of the middle of AU35's hollow, on the person's (left, right).
+    fn cheek_hollow_brightness(expression: &str, identity: &Identity) -> [Vec<f32>; 2] {
+        let expression = Catalog::built_in().parse(expression).unwrap();
+        let view = MouthView::of(&expression, identity);
+        let image = render_still(&expression, identity, FrameSettings { width: 242, height: 240, threads: Some(1), ..Default::default() }).unwrap();
+        let model = FaceModel::embedded();
+        let side: Vec<Option<usize>> = model.part(Part::Skin).triangles.iter().map(|t| {
+            let c = t.iter().map(|&v| model.rest[v as usize]).sum::<Vec3>() / 3.0;
+            ((Vec2::new(c.x.abs(), c.y) - Vec2::new(0.56, 6.70)).length() < 0.12).then_some(usize::from(c.x < 0.0))
+        }).collect();
+        let mut sides = [Vec::new(), Vec::new()];
+        for (y, x) in (0..240).flat_map(|y| (0..242).map(move |x| (y, x))) {
+            let hit: Vec<Option<usize>> = view.visibility.pixel(x, y).iter().map(|h| h.as_ref().filter(|h| h.item == MouthView::item(Part::Skin)).and_then(|h| side[h.triangle as usize])).collect();
+            if let Some(&Some(s)) = hit.first() {
+                if hit.iter().all(|&t| t == Some(s)) {
+                    sides[s].push(image.pixel(x, y).iter().map(|&c| f32::from(c)).sum::<f32>() / 3.0);
+                }
+            }
+        }
+        sides
+    }
+
+    /// FACS: AU35 sucks the cheeks in between the teeth, a hollow between cheekbone and jaw on
+    /// both sides. The dip is in the mesh (`pose::tests::cheeks_blow_out_and_suck_in`); drawn
+    /// as relief too, its floor darkens and its walls are shaded, so it reads under the studio
+    /// light on the lit side as well. On each of the eight evaluation people the skin the camera
+    /// sees within 12 mm of the hollow's middle is at 35E at most 0.9 as bright as at rest on
+    /// the side away from the key light and at most 0.96 on the lit side (0.854–0.884 and
+    /// 0.930–0.949; from the dip alone 0.920–0.944 and 0.978–1.008: the lit side's hollow faced
+    /// the light and read as no hollow at all).
+    #[test]
+    fn au35_shades_the_hollows_of_both_cheeks() {
+        let mut failures = Vec::new();
+        let mean = |v: &[f32]| v.iter().sum::<f32>() / v.len().max(1) as f32;
+        for id in ["wm1", "wm2", "bm1", "bm2", "wf1", "wf2", "bf1", "bf2"] {
+            let identity = IdentityTable::built_in().get(id).unwrap();
+            let [rest, sucked] = ["0", "35E"].map(|x| cheek_hollow_brightness(x, identity));
+            // The key light comes from the person's right (`look::LightPreset::Studio`).
+            let [away, lit] = [0, 1].map(|s| mean(&sucked[s]) / mean(&rest[s]));
+            println!("{id}: hollows at 35E {away:.3} (left, away from the key light) and {lit:.3} (right, lit) as bright as at rest");
+            if !(away <= 0.9 && lit <= 0.96) {
+                failures.push(format!("{id}: {away:.3} {lit:.3}"));
+            }
+        }
+        assert!(failures.is_empty(), "{}", failures.join("\n"));
     }
 
     /// FACS: AU13, the sharp lip puller, tightens the lips as it pulls their corners up, so

@@ -584,6 +584,35 @@ mod tests {
         100.0 * moved.iter().sum::<f32>() / moved.len() as f32
     }
 
+    /// How far (mm) the skin of the nose wings within 3 mm of the left wing's outer point
+    /// (and the right's mirror image) moved away from the midline, on average.
+    fn nose_wings_out_mm(identity: &str, expression: &str) -> f32 {
+        let (posed, prepared) = posed_on(identity, expression);
+        let model = FaceModel::embedded();
+        let wing = Vec3::new(0.175, 6.89, 1.47);
+        let near = |r: Vec3| (Vec3::new(r.x.abs(), r.y, r.z) - wing).length() < 0.03;
+        let skin = model.part(Part::Skin).vertices.clone();
+        let out: Vec<f32> = skin.map(|v| v as usize).filter(|&v| near(model.rest[v])).map(|v| (posed.positions[v].x - prepared.neutral[v].x) * model.rest[v].x.signum()).collect();
+        100.0 * out.iter().sum::<f32>() / out.len().max(1) as f32
+    }
+
+    /// FACS: AU38 flares the nostril wings outward, at E as wide as they go; AU39 draws them
+    /// in. On each of the eight evaluation people the nose wings move out by at least 2.5 mm on
+    /// each side at 38E (0.85–1.45 mm when the dilator's pull was centred inside the wing), and
+    /// in by at least 1.5 mm at 39E.
+    #[test]
+    fn nostrils_flare_at_38e_and_narrow_at_39e() {
+        let mut failures = Vec::new();
+        for id in ["wm1", "wm2", "bm1", "bm2", "wf1", "wf2", "bf1", "bf2"] {
+            let (flare, narrow) = (nose_wings_out_mm(id, "38"), nose_wings_out_mm(id, "39"));
+            println!("{id}: nose wings out at 38E {flare:.2} mm, at 39E {narrow:.2} mm");
+            if !(flare >= 2.5 && narrow <= -1.5) {
+                failures.push(format!("{id}: 38E {flare:.2} mm, 39E {narrow:.2} mm"));
+            }
+        }
+        assert!(failures.is_empty(), "{}", failures.join("\n"));
+    }
+
     /// FACS: air blows (AU33) or puffs (AU34) the cheeks out, and AU35 sucks them in between the
     /// teeth. On each of the eight evaluation people the cheeks between cheekbone and jaw move
     /// out at 33E by at least 11 mm and at 34E by at least 8 mm where the puff is greatest, and

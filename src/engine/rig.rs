@@ -95,6 +95,8 @@ pub enum RigError {
     Missing(AuCode),
     #[error("pair corrective {0}")]
     Corrective(String),
+    #[error("channel \"{channel}\": rise {rise} is not in (0, 4]")]
+    Rise { channel: String, rise: f32 },
     #[error("narrow_midline names \"{0}\", which is not a one-sided target of the AU basis")]
     NarrowMidline(String),
 }
@@ -105,6 +107,18 @@ pub struct ChannelUse {
     /// The side of the face a one-sided target belongs to; `None` for symmetric channels.
     pub side: Option<Side>,
     pub max: f32,
+    /// How the channel follows the AU's strength: it is driven with `max × strength^rise`
+    /// (1, the default, is HapFACS's linear Eq. 1; below 1 the channel leads the AU's lower
+    /// levels, e.g. AU19's tongue, which FACS wants in view from A on).
+    pub rise: f32,
+}
+
+impl ChannelUse {
+    /// The channel's value for the AU at `strength` (0..1), before Eq. 1's clamp.
+    pub fn value_at(&self, strength: f32) -> f32 {
+        let shaped = if self.rise == 1.0 { strength } else { strength.max(0.0).powf(self.rise) };
+        shaped * self.max
+    }
 }
 
 #[derive(Debug, Clone)]
@@ -134,11 +148,21 @@ struct RawChannel {
     channel: String,
     side: Option<Side>,
     max: f32,
+    #[serde(default = "linear")]
+    rise: f32,
+}
+
+fn linear() -> f32 {
+    1.0
 }
 
 impl ChannelUse {
     fn from_raw(raw: RawChannel) -> Result<ChannelUse, RigError> {
-        Ok(ChannelUse { channel: Channel::parse(&raw.channel)?, side: raw.side, max: raw.max })
+        let channel = Channel::parse(&raw.channel)?;
+        if !(raw.rise.is_finite() && raw.rise > 0.0 && raw.rise <= 4.0) {
+            return Err(RigError::Rise { channel: raw.channel, rise: raw.rise });
+        }
+        Ok(ChannelUse { channel, side: raw.side, max: raw.max, rise: raw.rise })
     }
 }
 
@@ -228,7 +252,7 @@ impl AuBasis {
                     unilateral.insert(use_.channel.clone());
                 }
                 let entry = sums.entry((use_.channel.clone(), side)).or_insert((0.0, f32::INFINITY));
-                entry.0 += strength * use_.max;
+                entry.0 += use_.value_at(strength);
                 entry.1 = entry.1.min(use_.max.abs());
             }
         }
@@ -405,8 +429,28 @@ mod tests {
     #[test]
     fn rigid_channels_average_the_sides() {
         assert_eq!(values("51").rigid(&Channel::HeadYaw), 30.0);
-        assert_eq!(values("19B").rigid(&Channel::JawOpen), 0.3 * 10.0);
         assert!(values("0").sided().is_empty());
+    }
+
+    #[test]
+    fn rise_lets_a_channel_lead_the_lower_levels() {
+        // AU19: the tongue with rise 0.45, the jaw with 0.3 (max 10°); E is the maximum either way.
+        let tongue = target("faceunits/tongueOut");
+        for (level, x) in [("A", 0.15f32), ("B", 0.3), ("C", 0.55), ("D", 0.85)] {
+            let v = values(&format!("19{level}"));
+            assert!((v.get(&tongue, Side::Left) - x.powf(0.45)).abs() < 1e-6, "19{level}");
+            assert!((v.rigid(&Channel::JawOpen) - 10.0 * x.powf(0.3)).abs() < 1e-4, "19{level}");
+        }
+        assert!((values("19A").get(&tongue, Side::Left) - 0.426).abs() < 1e-3);
+        assert!((values("19B").rigid(&Channel::JawOpen) - 6.97).abs() < 1e-2);
+        assert_eq!(values("19").get(&tongue, Side::Right), 1.0);
+        assert_eq!(values("19").rigid(&Channel::JawOpen), 10.0);
+        let au = |rise: &str| format!("[[au]]\ncode = 19\nchannels = [{{ channel = \"jaw.open\", max = 10.0, rise = {rise} }}]\n");
+        for bad in ["0.0", "-1.0", "5.0", "nan"] {
+            let error = AuBasis::from_toml(&au(bad)).unwrap_err().to_string();
+            assert!(error.contains("\"jaw.open\": rise") && error.contains("(0, 4]"), "{bad}: {error}");
+        }
+        assert!(AuBasis::from_toml(&au("0.5")).is_ok());
     }
 
     fn corrective(text: &str) -> Result<AuBasis, RigError> {

@@ -1631,7 +1631,7 @@ impl Relief {
     }
 }
 
-const PATTERNS: [(&str, Relief); 12] = [
+const PATTERNS: [(&str, Relief); 13] = [
     ("forehead_inner", Relief { pattern: forehead_inner, bounds: [0.0, 0.32, 7.6, 8.05] }),
     ("forehead_outer", Relief { pattern: forehead_outer, bounds: [0.08, 0.6, 7.55, 8.0] }),
     ("glabella_vertical", Relief { pattern: glabella_vertical, bounds: [0.0, 0.1, 7.35, 7.62] }),
@@ -1644,6 +1644,7 @@ const PATTERNS: [(&str, Relief); 12] = [
     ("dimple", Relief { pattern: dimple, bounds: [0.22, 0.36, 6.52, 6.71] }),
     ("chin_boss", Relief { pattern: chin_boss, bounds: [0.0, 0.2, 6.2, 6.52] }),
     ("lip_press_bulge", Relief { pattern: lip_press_bulge, bounds: [0.0, 0.24, 6.41, 6.8] }),
+    ("cheek_hollow", Relief { pattern: cheek_hollow, bounds: [0.44, 0.68, 6.57, 6.83] }),
 ];
 
 /// A groove of unit depth along a line at distance `d`, with half-width `w`: a Gaussian
@@ -1721,6 +1722,13 @@ fn crows_feet(p: Vec2) -> f32 {
 fn lower_lid_bulge(p: Vec2) -> f32 {
     let bulge = blob(p, Vec2::new(0.30, 7.165), Vec2::new(0.12, 0.035));
     bulge * 0.8 + 0.6 * groove(polyline_distance(p, &[Vec2::new(0.2, 7.135), Vec2::new(0.3, 7.125), Vec2::new(0.41, 7.15)]), 0.008)
+}
+
+/// AU35's hollow between cheekbone and jaw, where `cheek_suck` (deformers.toml) draws the skin
+/// in: the dip itself is in the mesh; drawn here as well, it shades the dip's slopes and darkens
+/// its floor, which the studio light alone barely shows on the side it lights.
+fn cheek_hollow(p: Vec2) -> f32 {
+    -2.5 * blob(p, Vec2::new(0.56, 6.70), Vec2::new(0.12, 0.13))
 }
 
 fn nose_wrinkles(p: Vec2) -> f32 {

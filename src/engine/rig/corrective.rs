@@ -85,7 +85,7 @@ impl Corrective {
                 continue;
             }
             for use_ in self.channels.iter().filter(|u| u.side.is_none_or(|s| s == side)) {
-                out.push((use_.channel.clone(), side, weight * use_.max));
+                out.push((use_.channel.clone(), side, use_.value_at(weight)));
             }
         }
         out
