@@ -560,10 +560,10 @@ mod tests {
         let mut sides = [Vec::new(), Vec::new()];
         for (y, x) in (0..240).flat_map(|y| (0..242).map(move |x| (y, x))) {
             let hit: Vec<Option<usize>> = view.visibility.pixel(x, y).iter().map(|h| h.as_ref().filter(|h| h.item == MouthView::item(Part::Skin)).and_then(|h| side[h.triangle as usize])).collect();
-            if let Some(&Some(s)) = hit.first() {
-                if hit.iter().all(|&t| t == Some(s)) {
-                    sides[s].push(image.pixel(x, y).iter().map(|&c| f32::from(c)).sum::<f32>() / 3.0);
-                }
+            if let Some(&Some(s)) = hit.first()
+                && hit.iter().all(|&t| t == Some(s))
+            {
+                sides[s].push(image.pixel(x, y).iter().map(|&c| f32::from(c)).sum::<f32>() / 3.0);
             }
         }
         sides
