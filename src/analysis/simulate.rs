@@ -25,6 +25,7 @@ use std::fmt::Write;
 
 mod laughs;
 
+use crate::engine::identity::EVALUATION_PEOPLE;
 use crate::facs::{Catalog, EmotionTable, Expression, Laterality};
 use crate::seeded::SplitMix64;
 use crate::study::measure::{Demographic, LabelSet, Measure, Scale};
@@ -128,8 +129,6 @@ const SIMILAR_EMOTIONS: [(&str, &str); 10] = [
     ("neutral", "none"),
 ];
 
-const IDENTITIES: [&str; 8] = ["wm1", "wm2", "bm1", "bm2", "wf1", "wf2", "bf1", "bf2"];
-
 const MANIFEST_HEADER: &str =
     "stimulus_id,media,file,identity,expression,emotion,intensity,onset_s,apex_s,offset_s,frames,fps,width,height,sha256,set_seed,engine_version\n";
 const RESPONSES_HEADER: &str = "participant_id,group,stimulus_id,trial,measure,value,rt_ms\n";
@@ -213,7 +212,7 @@ impl Simulation<'_> {
         };
         let stimuli: Vec<SimStimulus> = shown.into_iter().map(|expression| SimStimulus { id: self.rng.id(), expression, emotion: None }).collect();
         for (i, s) in stimuli.iter().enumerate() {
-            manifest_row(&mut self.manifest, s, true, IDENTITIES[i % IDENTITIES.len()], 1.0, self.o.seed);
+            manifest_row(&mut self.manifest, s, true, EVALUATION_PEOPLE[i % EVALUATION_PEOPLE.len()], 1.0, self.o.seed);
         }
         for c in 0..self.o.coders {
             let pid = format!("coder{}", c + 1);
@@ -292,7 +291,7 @@ impl Simulation<'_> {
                 for _ in 0..self.o.identities.max(1) {
                     let expression = if intensity == 1.0 { e.expression.to_string() } else { e.expression.scaled(intensity).to_string() };
                     let s = SimStimulus { id: self.rng.id(), expression, emotion: Some(e.label.clone()) };
-                    manifest_row(&mut self.manifest, &s, video, IDENTITIES[n % IDENTITIES.len()], intensity, self.o.seed);
+                    manifest_row(&mut self.manifest, &s, video, EVALUATION_PEOPLE[n % EVALUATION_PEOPLE.len()], intensity, self.o.seed);
                     n += 1;
                     stimuli.push((s, 0.5 * self.rng.normal()));
                 }

@@ -26,6 +26,20 @@ const NEUTRAL_LID_LIFT: f32 = 0.3;
 /// MediaPipe's readings in the README).
 const RESTING_FACE: [(&str, f32); 2] = [("identity/eyebrows/eyebrows-angle-down", 0.3), ("identity/mouth/mouth-angles-up", 0.25)];
 
+/// HapFACS's eight evaluation people (two white men, two black men, two white women, two black
+/// women): the first eight of the built-in table, and a stimulus set's rotation by default.
+pub const EVALUATION_PEOPLE: [&str; 8] = ["wm1", "wm2", "bm1", "bm2", "wf1", "wf2", "bf1", "bf2"];
+
+/// Runs `check` on each of the eight evaluation people and fails with every complaint
+/// (`Some(why)`, reported after the person's id) at once.
+#[cfg(test)]
+pub(crate) fn assert_on_the_eight(mut check: impl FnMut(&Identity) -> Option<String>) {
+    let table = IdentityTable::built_in();
+    let failures: Vec<String> =
+        EVALUATION_PEOPLE.iter().filter_map(|&id| check(table.get(id).expect("a built-in person")).map(|why| format!("{id}: {why}"))).collect();
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
 /// The largest identity file read (a few hundred people).
 pub const MAX_FILE_BYTES: usize = 1 << 20;
 

@@ -353,7 +353,7 @@ mod tests {
     #[test]
     fn the_white_of_the_eye_is_off_white() {
         let mut failures = Vec::new();
-        for id in ["wm1", "wm2", "bm1", "bm2", "wf1", "wf2", "bf1", "bf2"] {
+        for id in identity::EVALUATION_PEOPLE {
             let identity = IdentityTable::built_in().get(id).unwrap();
             let posed = pose_expression(&Catalog::built_in().parse("0").unwrap(), identity).unwrap();
             let camera = portrait_camera(posed.anchor, 485, 480);
@@ -491,16 +491,11 @@ mod tests {
     /// too, which the mouthRoll targets alone left showing), and it shrinks with intensity.
     #[test]
     fn au28_hides_the_red_of_the_lips() {
-        let mut failures = Vec::new();
-        for id in ["wm1", "wm2", "bm1", "bm2", "wf1", "wf2", "bf1", "bf2"] {
-            let identity = IdentityTable::built_in().get(id).unwrap();
+        identity::assert_on_the_eight(|identity| {
             let [rest, c, e] = ["0", "28C", "28E"].map(|x| red_lip_samples(x, identity));
-            println!("{id}: red lip samples at rest {rest}, 28C {c}, 28E {e} ({:.3} of rest)", e as f32 / rest as f32);
-            if !(rest > 0 && e * 5 < rest && c > e && c < rest) {
-                failures.push(format!("{id}: rest {rest}, 28C {c}, 28E {e}"));
-            }
-        }
-        assert!(failures.is_empty(), "{}", failures.join("\n"));
+            println!("{}: red lip samples at rest {rest}, 28C {c}, 28E {e} ({:.3} of rest)", identity.id, e as f32 / rest as f32);
+            (!(rest > 0 && e * 5 < rest && c > e && c < rest)).then(|| format!("rest {rest}, 28C {c}, 28E {e}"))
+        });
     }
 
     /// AU19 pushes the tongue out between the lips, where it is lit as the lips are: on each of
@@ -510,21 +505,16 @@ mod tests {
     /// beside them (the tongue used to be dimmed by where it rests, deep in the mouth: about half).
     #[test]
     fn au19_shows_the_tongue_lit_out_of_the_mouth() {
-        let mut failures = Vec::new();
-        for id in ["wm1", "wm2", "bm1", "bm2", "wf1", "wf2", "bf1", "bf2"] {
-            let identity = IdentityTable::built_in().get(id).unwrap();
+        identity::assert_on_the_eight(|identity| {
             let (b, _) = tongue_and_lip_pixels("19B", identity);
             let (c, _) = tongue_and_lip_pixels("19C", identity);
             let (tongue, lips) = tongue_and_lip_pixels("19E", identity);
             let mean = |v: &[f32]| v.iter().sum::<f32>() / v.len().max(1) as f32;
             let ratio = mean(&tongue) / mean(&lips);
             let counts = format!("tongue pixels 19B {}, 19C {}, 19E {}; brightness at E against the lips {ratio:.2}", b.len(), c.len(), tongue.len());
-            println!("{id}: {counts}");
-            if !(b.len() >= 10 && c.len() >= 40 && b.len() < c.len() && tongue.len() > c.len() && ratio >= 0.7) {
-                failures.push(format!("{id}: {counts}"));
-            }
-        }
-        assert!(failures.is_empty(), "{}", failures.join("\n"));
+            println!("{}: {counts}", identity.id);
+            (!(b.len() >= 10 && c.len() >= 40 && b.len() < c.len() && tongue.len() > c.len() && ratio >= 0.7)).then_some(counts)
+        });
     }
 
     /// The brightness (mean of R, G, B) of the pixels at 242×240 whose every sample the camera
@@ -579,19 +569,14 @@ mod tests {
     /// the light and read as no hollow at all).
     #[test]
     fn au35_shades_the_hollows_of_both_cheeks() {
-        let mut failures = Vec::new();
         let mean = |v: &[f32]| v.iter().sum::<f32>() / v.len().max(1) as f32;
-        for id in ["wm1", "wm2", "bm1", "bm2", "wf1", "wf2", "bf1", "bf2"] {
-            let identity = IdentityTable::built_in().get(id).unwrap();
+        identity::assert_on_the_eight(|identity| {
             let [rest, sucked] = ["0", "35E"].map(|x| cheek_hollow_brightness(x, identity));
             // The key light comes from the person's right (`look::LightPreset::Studio`).
             let [away, lit] = [0, 1].map(|s| mean(&sucked[s]) / mean(&rest[s]));
-            println!("{id}: hollows at 35E {away:.3} (left, away from the key light) and {lit:.3} (right, lit) as bright as at rest");
-            if !(away <= 0.9 && lit <= 0.96) {
-                failures.push(format!("{id}: {away:.3} {lit:.3}"));
-            }
-        }
-        assert!(failures.is_empty(), "{}", failures.join("\n"));
+            println!("{}: hollows at 35E {away:.3} (left, away from the key light) and {lit:.3} (right, lit) as bright as at rest", identity.id);
+            (!(away <= 0.9 && lit <= 0.96)).then(|| format!("{away:.3} {lit:.3}"))
+        });
     }
 
     /// FACS: AU13, the sharp lip puller, tightens the lips as it pulls their corners up, so
@@ -601,17 +586,12 @@ mod tests {
     /// pulled the corners up and parted the lips over the teeth, 0.88–0.90).
     #[test]
     fn au13_narrows_the_red_of_the_lips() {
-        let mut failures = Vec::new();
-        for id in ["wm1", "wm2", "bm1", "bm2", "wf1", "wf2", "bf1", "bf2"] {
-            let identity = IdentityTable::built_in().get(id).unwrap();
+        identity::assert_on_the_eight(|identity| {
             let [rest, sharp] = ["0", "13E"].map(|x| red_down_the_middle(x, identity));
             let share = sharp as f32 / rest as f32;
-            println!("{id}: red samples down the middle at rest {rest}, 13E {sharp} ({share:.3} of rest)");
-            if share > 0.8 {
-                failures.push(format!("{id}: rest {rest}, 13E {sharp} ({share:.3})"));
-            }
-        }
-        assert!(failures.is_empty(), "{}", failures.join("\n"));
+            println!("{}: red samples down the middle at rest {rest}, 13E {sharp} ({share:.3} of rest)", identity.id);
+            (share > 0.8).then(|| format!("rest {rest}, 13E {sharp} ({share:.3})"))
+        });
     }
 
     /// The samples at 242×240 of the lips' red in the five pixel columns at the middle of the

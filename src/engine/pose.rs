@@ -538,7 +538,7 @@ pub fn side_of(rest: Vec3) -> Side {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::engine::identity::IdentityTable;
+    use crate::engine::identity::{assert_on_the_eight, IdentityTable, EVALUATION_PEOPLE};
     use crate::engine::rig::AuBasis;
     use crate::facs::Catalog;
 
@@ -602,15 +602,12 @@ mod tests {
     /// in by at least 1.5 mm at 39E.
     #[test]
     fn nostrils_flare_at_38e_and_narrow_at_39e() {
-        let mut failures = Vec::new();
-        for id in ["wm1", "wm2", "bm1", "bm2", "wf1", "wf2", "bf1", "bf2"] {
+        assert_on_the_eight(|identity| {
+            let id = identity.id.as_str();
             let (flare, narrow) = (nose_wings_out_mm(id, "38"), nose_wings_out_mm(id, "39"));
             println!("{id}: nose wings out at 38E {flare:.2} mm, at 39E {narrow:.2} mm");
-            if !(flare >= 2.5 && narrow <= -1.5) {
-                failures.push(format!("{id}: 38E {flare:.2} mm, 39E {narrow:.2} mm"));
-            }
-        }
-        assert!(failures.is_empty(), "{}", failures.join("\n"));
+            (!(flare >= 2.5 && narrow <= -1.5)).then(|| format!("38E {flare:.2} mm, 39E {narrow:.2} mm"))
+        });
     }
 
     /// FACS: air blows (AU33) or puffs (AU34) the cheeks out, and AU35 sucks them in between the
@@ -621,17 +618,14 @@ mod tests {
     /// cheek's skin, which it barely moved; none of them showed much from the front).
     #[test]
     fn cheeks_blow_out_and_suck_in() {
-        let mut failures = Vec::new();
-        for id in ["wm1", "wm2", "bm1", "bm2", "wf1", "wf2", "bf1", "bf2"] {
+        assert_on_the_eight(|identity| {
+            let id = identity.id.as_str();
             // Where the puff target moves the skin most, and where the suck's pull is centred.
             let (puffed, sucked) = (Vec3::new(0.43, 6.7, 1.2), Vec3::new(0.56, 6.7, 1.06));
             let [blow, puff, suck] = [("33", puffed), ("34", puffed), ("35", sucked)].map(|(x, centre)| cheeks_outward_mm(id, x, centre));
             println!("{id}: cheeks out at 33E {blow:.1} mm, 34E {puff:.1} mm, 35E {suck:.1} mm");
-            if !(blow >= 11.0 && puff >= 8.0 && suck <= -6.0) {
-                failures.push(format!("{id}: 33E {blow:.1}, 34E {puff:.1}, 35E {suck:.1} mm"));
-            }
-        }
-        assert!(failures.is_empty(), "{}", failures.join("\n"));
+            (!(blow >= 11.0 && puff >= 8.0 && suck <= -6.0)).then(|| format!("33E {blow:.1}, 34E {puff:.1}, 35E {suck:.1} mm"))
+        });
     }
 
     /// Every one-sided AU (but AU30, whose prefix is a direction) on every identity: the largest
@@ -767,7 +761,7 @@ mod tests {
         let mean_rise = |posed: &Posed, neutral: &[Vec3], of: &dyn Fn(&(usize, usize)) -> usize| {
             roots.iter().map(|pair| posed.positions[of(pair)].y - neutral[of(pair)].y).sum::<f32>() / roots.len() as f32
         };
-        for identity in ["wm1", "wm2", "bm1", "bm2", "wf1", "wf2", "bf1", "bf2"] {
+        for identity in EVALUATION_PEOPLE {
             let (posed, prepared) = posed_on(identity, "5");
             let margin = mean_rise(&posed, &prepared.neutral, &|&(_, root)| root);
             let lash = mean_rise(&posed, &prepared.neutral, &|&(lash, _)| lash);

@@ -66,8 +66,6 @@ use crate::engine::Style;
 use crate::laugh::{LaughTable, Take};
 use crate::speech::Staging;
 
-/// The eight evaluation identities, in rotation order.
-pub const EIGHT: [&str; 8] = ["wm1", "wm2", "bm1", "bm2", "wf1", "wf2", "bf1", "bf2"];
 
 /// A spec that cannot be built; `entry` says where.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -294,7 +292,7 @@ impl SetSpec {
         if !(1..=120).contains(&fps) {
             return Err(fail("spec", format!("fps {fps} is out of range (1..=120)")));
         }
-        let rotation: Vec<String> = raw.identities.unwrap_or_else(|| EIGHT.iter().map(|s| s.to_string()).collect());
+        let rotation: Vec<String> = raw.identities.unwrap_or_else(|| crate::engine::identity::EVALUATION_PEOPLE.iter().map(|s| s.to_string()).collect());
         if rotation.is_empty() {
             return Err(fail("spec", "identities is empty"));
         }

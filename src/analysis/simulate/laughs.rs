@@ -44,7 +44,7 @@ impl Simulation<'_> {
             for (k, &(style, base)) in styles.iter().enumerate() {
                 let shift: f64 = INTERACTION.iter().filter(|(t, s, _)| *t == declared.id && *s == style).map(|(_, _, d)| d).sum();
                 let stimulus = SimStimulus { id: self.rng.id(), expression: "6+12+25".into(), emotion: Some(Qualified::text(laughs.id(), &declared.id)) };
-                manifest_row(&mut self.manifest, &stimulus, true, super::IDENTITIES[k % super::IDENTITIES.len()], 1.0, self.o.seed);
+                manifest_row(&mut self.manifest, &stimulus, true, super::EVALUATION_PEOPLE[k % super::EVALUATION_PEOPLE.len()], 1.0, self.o.seed);
                 self.manifest.pop();
                 self.manifest.push_str(&format!(",{style}\n"));
                 out.push(LaughStimulus { stimulus, label, mean: base + TYPE_OFFSET[label] + shift });
