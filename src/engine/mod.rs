@@ -517,46 +517,42 @@ mod tests {
         });
     }
 
-    /// The brightness (mean of R, G, B) of the pixels at 242×240 whose every sample the camera
-    /// sees on the tongue, and of those it sees on the lips' red.
-    fn tongue_and_lip_pixels(expression: &str, identity: &Identity) -> (Vec<f32>, Vec<f32>) {
+    /// The brightness (mean of R, G, B) of the pixels of a frontal 242×240 picture of
+    /// `expression` whose every sample `class` puts in the same class (0 or 1), by class.
+    fn pixels_by_class(expression: &str, identity: &Identity, class: impl Fn(&MouthView, &raster::Hit) -> Option<usize>) -> [Vec<f32>; 2] {
         let expression = Catalog::built_in().parse(expression).unwrap();
         let view = MouthView::of(&expression, identity);
         let image = render_still(&expression, identity, FrameSettings { width: 242, height: 240, threads: Some(1), ..Default::default() }).unwrap();
-        let (mut tongue, mut red) = (Vec::new(), Vec::new());
+        let mut classes = [Vec::new(), Vec::new()];
         for (y, x) in (0..240).flat_map(|y| (0..242).map(move |x| (y, x))) {
-            let hits = view.visibility.pixel(x, y);
-            let brightness = image.pixel(x, y).iter().map(|&c| f32::from(c)).sum::<f32>() / 3.0;
-            if hits.iter().all(|h| h.is_some_and(|h| h.item == MouthView::item(Part::Tongue))) {
-                tongue.push(brightness);
-            } else if hits.iter().all(|h| h.as_ref().is_some_and(|h| view.is_red(h))) {
-                red.push(brightness);
+            let of: Vec<Option<usize>> = view.visibility.pixel(x, y).iter().map(|h| h.as_ref().and_then(|h| class(&view, h))).collect();
+            if let Some(&Some(c)) = of.first()
+                && of.iter().all(|&k| k == Some(c))
+            {
+                classes[c].push(image.pixel(x, y).iter().map(|&v| f32::from(v)).sum::<f32>() / 3.0);
             }
         }
+        classes
+    }
+
+    /// The brightness of the pixels at 242×240 whose every sample the camera sees on the
+    /// tongue, and of those it sees on the lips' red.
+    fn tongue_and_lip_pixels(expression: &str, identity: &Identity) -> (Vec<f32>, Vec<f32>) {
+        let [tongue, red] = pixels_by_class(expression, identity, |view, hit| {
+            if hit.item == MouthView::item(Part::Tongue) { Some(0) } else { view.is_red(hit).then_some(1) }
+        });
         (tongue, red)
     }
 
     /// The brightness of the skin the camera sees at 242×240 (whole pixels) within 12 mm (by
     /// rest position, mirrored) of the middle of AU35's hollow, on the person's (left, right).
     fn cheek_hollow_brightness(expression: &str, identity: &Identity) -> [Vec<f32>; 2] {
-        let expression = Catalog::built_in().parse(expression).unwrap();
-        let view = MouthView::of(&expression, identity);
-        let image = render_still(&expression, identity, FrameSettings { width: 242, height: 240, threads: Some(1), ..Default::default() }).unwrap();
         let model = FaceModel::embedded();
         let side: Vec<Option<usize>> = model.part(Part::Skin).triangles.iter().map(|t| {
             let c = t.iter().map(|&v| model.rest[v as usize]).sum::<Vec3>() / 3.0;
             ((Vec2::new(c.x.abs(), c.y) - Vec2::new(0.56, 6.70)).length() < 0.12).then_some(usize::from(c.x < 0.0))
         }).collect();
-        let mut sides = [Vec::new(), Vec::new()];
-        for (y, x) in (0..240).flat_map(|y| (0..242).map(move |x| (y, x))) {
-            let hit: Vec<Option<usize>> = view.visibility.pixel(x, y).iter().map(|h| h.as_ref().filter(|h| h.item == MouthView::item(Part::Skin)).and_then(|h| side[h.triangle as usize])).collect();
-            if let Some(&Some(s)) = hit.first()
-                && hit.iter().all(|&t| t == Some(s))
-            {
-                sides[s].push(image.pixel(x, y).iter().map(|&c| f32::from(c)).sum::<f32>() / 3.0);
-            }
-        }
-        sides
+        pixels_by_class(expression, identity, |_, hit| if hit.item == MouthView::item(Part::Skin) { side[hit.triangle as usize] } else { None })
     }
 
     /// FACS: AU35 sucks the cheeks in between the teeth, a hollow between cheekbone and jaw on
