@@ -513,9 +513,10 @@ impl SkinMaps {
 
 /// How a surface takes the light: wrapped diffuse (light past the terminator), a specular
 /// lobe's strength and exponent, the share of the sky and the fill lights that reaches it
-/// (1 in the open; the key light's share is its shadow map's), and whether it is living tissue,
+/// (1 in the open; the key light's share is its shadow map's), whether it is living tissue,
 /// under which scattered light carries red into a cast shadow's edge ([`key_share`]; not the
-/// top's fabric).
+/// top's fabric), and the colour of the light left in a cast shadow on it (`bounce`, see
+/// [`skin_bounce`]; white but on the skin).
 #[derive(Clone, Copy, Debug)]
 struct Surface {
     wrap: f32,
@@ -523,15 +524,16 @@ struct Surface {
     shininess: f32,
     open: f32,
     tissue: bool,
+    bounce: Vec3,
 }
 
-/// The key light's share in each channel where `reaches` of it passes a cast shadow's edge
-/// (`share` with the shadow's floor): light scattered under the skin carries red furthest into
-/// the shadow and green a little, blue not, the more the wider the surface's `wrap`. Fully lit
-/// and fully shadowed points keep `share` in every channel.
-fn key_share(share: f32, reaches: f32, wrap: f32) -> Vec3 {
+/// The key light's share in each channel where `reaches` of it passes a cast shadow's edge,
+/// with `floor` (per channel) left where none does: light scattered under the skin carries red
+/// furthest into the shadow and green a little, blue not, the more the wider the surface's
+/// `wrap`. Fully lit points take all of it, fully shadowed ones the floor.
+fn key_share(floor: Vec3, reaches: f32, wrap: f32) -> Vec3 {
     let edge = wrap * reaches * (1.0 - reaches);
-    Vec3::new(share + SHADOW_EDGE_RED * edge, share + SHADOW_EDGE_GREEN * edge, share)
+    Vec3::splat(reaches) + floor * (1.0 - reaches) + Vec3::new(SHADOW_EDGE_RED * edge, SHADOW_EDGE_GREEN * edge, 0.0)
 }
 
 /// How far red and green reach into a cast shadow's edge, per unit of wrap: at the middle of
@@ -647,7 +649,25 @@ pub struct FaceShader<'a> {
     /// of a surface one pixel spans.
     eye: Vec3,
     pixel_angle: f32,
+    /// The colour of the light left in a cast shadow on the skin ([`skin_bounce`]).
+    skin_bounce: Vec3,
 }
+
+/// The colour of the light that reaches a cast shadow on the skin of colour `skin` (linear):
+/// much of it is the key light thrown back by the lit skin around (the nose's lit side onto the
+/// cheek in its shadow) and scattered under the skin, so it takes the skin's hue, here at
+/// [`SKIN_BOUNCE`] of the way from white, at the same luminance. A shadow on the skin then
+/// reads as darker skin, not as a grey patch under the cool fill.
+fn skin_bounce(skin: Vec3) -> Vec3 {
+    let luminance = skin.dot(REC709);
+    if luminance > 0.0 { Vec3::ONE.lerp(skin / luminance, SKIN_BOUNCE) } else { Vec3::ONE }
+}
+
+/// How far a cast shadow's light on the skin takes the skin's hue (0: white, 1: the skin's).
+const SKIN_BOUNCE: f32 = 1.0;
+
+/// Luminance weights of linear Rec. 709 (sRGB) colour.
+const REC709: Vec3 = Vec3::new(0.2126, 0.7152, 0.0722);
 
 impl<'a> FaceShader<'a> {
     pub fn new(model: &'a FaceModel, posed: &'a Posed, identity: &'a Identity, look: &Look, camera: &Camera) -> FaceShader<'a> {
@@ -661,7 +681,7 @@ impl<'a> FaceShader<'a> {
         let (body, body_key_light, hair, hair_key_light) = (None, KeyLight::default(), None, KeyLight::default());
         let backdrop_kind = look.backdrop;
         let hairline = Hairline::of(identity);
-        FaceShader { maps, key_light, body, body_key_light, hair, hair_seen: &[], hair_key_light, shadow: None, relief, aged_relief, model, posed, identity, hairline, lighting, backdrop_kind, backdrop, eye, pixel_angle }
+        FaceShader { maps, key_light, body, body_key_light, hair, hair_seen: &[], hair_key_light, shadow: None, relief, aged_relief, model, posed, identity, hairline, lighting, backdrop_kind, backdrop, eye, pixel_angle, skin_bounce: skin_bounce(identity.skin) }
     }
 
     /// Casts the key light's shadows from `shadow`, looked up once per vertex (offset along the
@@ -732,12 +752,12 @@ impl<'a> FaceShader<'a> {
     }
 
     fn lit(&self, f: &Fragment, normal: Vec3, albedo: Vec3, wrap: f32, specular: f32, shininess: f32) -> Vec3 {
-        self.lit_reached(f, normal, albedo, Surface { wrap, specular, shininess, open: 1.0, tissue: true }, self.key_reach(f))
+        self.lit_reached(f, normal, albedo, Surface { wrap, specular, shininess, open: 1.0, tissue: true, bounce: Vec3::ONE }, self.key_reach(f))
     }
 
     /// [`Self::lit`] with the fraction of the key light reaching `f` already known.
     fn lit_reached(&self, f: &Fragment, normal: Vec3, albedo: Vec3, surface: Surface, key_reaches: f32) -> Vec3 {
-        let Surface { wrap, specular, shininess, open, tissue } = surface;
+        let Surface { wrap, specular, shininess, open, tissue, bounce } = surface;
         let view = f.view_dir;
         let Lighting { lights, sky, ground, shadow_floor, .. } = &self.lighting;
         let ambient = sky.lerp(*ground, (0.5 - 0.5 * normal.y).clamp(0.0, 1.0));
@@ -746,7 +766,7 @@ impl<'a> FaceShader<'a> {
         let wraps = Vec3::new(wrap * 1.6, wrap, wrap * 0.8);
         let per_wrap = Vec3::ONE / (Vec3::ONE + wraps);
         for (n, light) in lights.iter().enumerate() {
-            let reach = if n == 0 { key_share(shadow_floor + (1.0 - shadow_floor) * key_reaches, key_reaches, if tissue { wrap } else { 0.0 }) } else { Vec3::splat(open) };
+            let reach = if n == 0 { key_share(*shadow_floor * bounce, key_reaches, if tissue { wrap } else { 0.0 }) } else { Vec3::splat(open) };
             let n_dot_l = normal.dot(light.direction);
             let wrapped = ((Vec3::splat(n_dot_l) + wraps) * per_wrap).max(Vec3::ZERO);
             colour += albedo * light.colour * wrapped * reach;
@@ -845,7 +865,7 @@ impl<'a> FaceShader<'a> {
         let shininess = 16.0 + 24.0 * lips + 48.0 * wet.min(1.0);
         let reach = self.key_reach(f);
         let open = self.hair_skin_value(f, |hair| &hair.skin_open, 1.0);
-        let surface = Surface { wrap: 0.35 * (1.0 - hair), specular, shininess, open, tissue: true };
+        let surface = Surface { wrap: 0.35 * (1.0 - hair), specular, shininess, open, tissue: true, bounce: self.skin_bounce };
         let mut colour = self.lit_reached(f, normal, albedo, surface, reach);
         colour += self.subsurface_bleed(normal, albedo, reach) * (1.0 - hair);
         if let Some(paint) = scalp.filter(|_| hair > 0.85 && self.hair.is_some() && self.combed()) {
@@ -1024,7 +1044,7 @@ impl<'a> FaceShader<'a> {
         let p = f.position;
         let contact = 1.0 - COLLAR_CONTACT_SHADOW * (1.0 - smoothstep(0.0, COLLAR_CONTACT_DM, -below));
         let albedo = self.identity.skin * (1.0 + 0.06 * (fbm(p * 40.0) - 0.5)) * contact;
-        let skin = Surface { wrap: 0.35, specular: 0.25, shininess: 18.0, open: 1.0, tissue: true };
+        let skin = Surface { wrap: 0.35, specular: 0.25, shininess: 18.0, open: 1.0, tissue: true, bounce: self.skin_bounce };
         self.lit_reached(f, f.normal, albedo, skin, reach)
     }
 
@@ -1043,7 +1063,7 @@ impl<'a> FaceShader<'a> {
             normal = (normal + Vec3::new(0.0, 0.35 * (1.0 - 2.0 * smoothstep(0.0, 0.06, below)), 0.0) * rib).normalize();
         }
         let texture = 0.93 + 0.07 * weave - 0.08 * rib * stripes;
-        let fabric = Surface { wrap: 0.25, specular: 0.04, shininess: 8.0, open: 1.0, tissue: false };
+        let fabric = Surface { wrap: 0.25, specular: 0.04, shininess: 8.0, open: 1.0, tissue: false, bounce: Vec3::ONE };
         self.lit_reached(f, normal, self.identity.top * texture, fabric, reach)
     }
 
@@ -1074,7 +1094,7 @@ impl<'a> FaceShader<'a> {
         let up = d.dot(eye.up) - LID_RAISE_SHADOW * self.lid_raise(side);
         let lid_shadow = (1.0 - 0.6 * smoothstep(0.0, 0.45, up)) * (1.0 - EYE_CORNER_SHADOW * smoothstep(0.55, 1.0, d.dot(right).abs()));
         // The socket, lids and brow leave the eyeball a narrow view of the sky and fill lights.
-        let surface = Surface { wrap: 0.1, specular: 0.0, shininess: 1.0, open: EYE_SOCKET_OPEN, tissue: true };
+        let surface = Surface { wrap: 0.1, specular: 0.0, shininess: 1.0, open: EYE_SOCKET_OPEN, tissue: true, bounce: Vec3::ONE };
         let colour = self.lit_reached(f, d, albedo * lid_shadow, surface, self.key_reach(f));
         colour + self.cornea_highlight(d, f.view_dir) * self.interpolate(&self.key_light.reach, f)
     }
@@ -1139,7 +1159,7 @@ impl<'a> FaceShader<'a> {
     fn shade_teeth(&self, f: &Fragment) -> Vec3 {
         let rest = self.rest(f);
         let reach = 0.45 + 0.55 * self.key_reach(f);
-        let surface = Surface { wrap: 0.2, specular: 0.5, shininess: 40.0, open: 1.0, tissue: true };
+        let surface = Surface { wrap: 0.2, specular: 0.5, shininess: 40.0, open: 1.0, tissue: true, bounce: Vec3::ONE };
         // The arch is a few flat facets: its normals turn half toward the viewer, so that a
         // tooth reads as one rounded surface, not as a lit and a dark facet.
         let normal = (f.normal + f.view_dir).normalize_or(f.normal);
@@ -1188,7 +1208,7 @@ impl<'a> FaceShader<'a> {
         let paint = |field: usize| mix(&|v| self.maps.vertices[v][field]);
         let mut albedo = self.identity.skin * paint(SkinVertex::MOTTLE);
         albedo = albedo.lerp(albedo * Vec3::new(0.84, 0.8, 0.84), 0.6 * paint(SkinVertex::PERIORBITAL));
-        let surface = Surface { wrap: 0.35, specular: 0.16, shininess: 16.0, open: 1.0, tissue: true };
+        let surface = Surface { wrap: 0.35, specular: 0.16, shininess: 16.0, open: 1.0, tissue: true, bounce: self.skin_bounce };
         self.lit_reached(f, normal, albedo, surface, reach)
     }
 
@@ -2225,19 +2245,35 @@ mod tests {
 
     /// A cast shadow's edge on skin is warmer than its lit and its shadowed sides: in its middle
     /// red is lit 0.15 and green 0.035 more than blue (a grey edge read as a painted shadow);
-    /// points fully lit or fully shadowed, and surfaces without wrap, keep one share.
+    /// points fully lit take all the key light, fully shadowed ones the floor, and surfaces
+    /// without wrap the same share in every channel.
     #[test]
     fn a_cast_shadows_edge_on_skin_is_warmer() {
-        let skin = 0.35;
-        for reaches in [0.0, 1.0] {
-            let share = key_share(0.2 + 0.8 * reaches, reaches, skin);
-            assert_eq!(share, Vec3::splat(0.2 + 0.8 * reaches));
-        }
-        let middle = key_share(0.6, 0.5, skin);
+        let (skin, floor) = (0.35, Vec3::splat(0.2));
+        assert_eq!(key_share(floor, 0.0, skin), floor);
+        assert_eq!(key_share(floor, 1.0, skin), Vec3::ONE);
+        let middle = key_share(floor, 0.5, skin);
         assert!((middle.x - middle.z - 0.149).abs() < 0.002 && (middle.y - middle.z - 0.035).abs() < 0.002, "{middle}");
-        assert_eq!(key_share(0.6, 0.5, 0.0), Vec3::splat(0.6));
-        let warmth = |r: f32| key_share(r, r, skin).x - r;
+        assert!((middle.z - 0.6).abs() < 1e-6, "{middle}");
+        assert_eq!(key_share(floor, 0.5, 0.0), Vec3::splat(0.6));
+        let warmth = |r: f32| key_share(floor, r, skin).x - key_share(floor, r, skin).z;
         assert!(warmth(0.25) < warmth(0.5) && warmth(0.75) < warmth(0.5), "warmest in the middle of the edge");
+    }
+
+    /// The light left in a cast shadow on the skin has the skin's hue at the luminance of white
+    /// (under the cool fill a shadow on the nose's side read as a grey patch): the same ratios
+    /// of red to green to blue as the skin, luminance 1; white for a grey skin; and the floor
+    /// it colours leaves the key light's share in the open at 1.
+    #[test]
+    fn a_cast_shadow_on_skin_keeps_the_skins_hue() {
+        for skin in [Vec3::new(0.62, 0.36, 0.26), Vec3::new(0.2, 0.09, 0.05)] {
+            let bounce = skin_bounce(skin);
+            assert!((bounce.dot(REC709) - 1.0).abs() < 1e-5, "{bounce}");
+            assert!((bounce.x / bounce.z - skin.x / skin.z).abs() < 1e-4 && (bounce.y / bounce.z - skin.y / skin.z).abs() < 1e-4, "{bounce}");
+            assert_eq!(key_share(0.15 * bounce, 1.0, 0.35), Vec3::ONE);
+        }
+        assert!((skin_bounce(Vec3::splat(0.3)) - Vec3::ONE).abs().max_element() < 1e-5);
+        assert_eq!(skin_bounce(Vec3::ZERO), Vec3::ONE);
     }
 
     #[test]
