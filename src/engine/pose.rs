@@ -695,6 +695,33 @@ mod tests {
         assert!(failures.is_empty(), "{}", failures.join("\n"));
     }
 
+    /// The mean posed x of the front skin within 4 mm (by rest x and y) of rest point `at` on the
+    /// person's left.
+    fn posed_x_near(posed: &Posed, at: glam::Vec2) -> f32 {
+        let model = FaceModel::embedded();
+        let near: Vec<f32> = model.part(Part::Skin).vertices.clone().map(|i| i as usize)
+            .filter(|&i| model.rest[i].z > 1.3 && (model.rest[i].truncate() - at).length() < 0.04)
+            .map(|i| posed.positions[i].x).collect();
+        near.iter().sum::<f32>() / near.len().max(1) as f32
+    }
+
+    /// FACS: AU4's vertical furrows stand between the brows, upright beside the midline. At 4E
+    /// on each of the eight evaluation people the skin where each furrow is drawn lies 3–6 mm
+    /// from the midline at its foot and at its top, the foot at least 0.7 as far out as the top
+    /// (3.7–4.4 mm and 4.6–5.0 mm; drawn 3.5 mm out at the foot, as before, the foot came to
+    /// 0.4–0.6 mm from the midline and the two furrows met in a V at the nose's root).
+    #[test]
+    fn au4_furrows_stand_upright_between_the_brows() {
+        use crate::engine::shade::GLABELLA_FURROW;
+        assert_on_the_eight(|identity| {
+            let posed = posed_on(&identity.id, "4E").0;
+            let [foot, top] = GLABELLA_FURROW.map(|p| posed_x_near(&posed, p));
+            println!("{}: at 4E the furrow's foot {foot:.4} dm and top {top:.4} dm from the midline", identity.id);
+            let out = |x: f32| (0.03..=0.06).contains(&x);
+            (!(out(foot) && out(top) && foot >= 0.7 * top)).then(|| format!("foot {foot:.4}, top {top:.4}"))
+        });
+    }
+
     /// AUs that move the lids (AU5 up, AU6/7/9 lower lid up, AU43/46 closed) leave every lid
     /// and lash vertex in front of an eye outside the eyeball, on every identity.
     #[test]

@@ -1654,7 +1654,7 @@ impl Relief {
 const PATTERNS: [(&str, Relief); 13] = [
     ("forehead_inner", Relief { pattern: forehead_inner, bounds: [0.0, 0.32, 7.6, 8.05] }),
     ("forehead_outer", Relief { pattern: forehead_outer, bounds: [0.08, 0.6, 7.55, 8.0] }),
-    ("glabella_vertical", Relief { pattern: glabella_vertical, bounds: [0.0, 0.1, 7.35, 7.62] }),
+    ("glabella_vertical", Relief { pattern: glabella_vertical, bounds: [0.0, 0.16, 7.35, 7.65] }),
     ("glabella_horizontal", Relief { pattern: glabella_horizontal, bounds: [0.0, 0.12, 7.32, 7.44] }),
     ("crows_feet", Relief { pattern: crows_feet, bounds: [0.45, 0.64, 7.18, 7.42] }),
     ("lower_lid_bulge", Relief { pattern: lower_lid_bulge, bounds: [0.14, 0.47, 7.08, 7.22] }),
@@ -1708,10 +1708,18 @@ fn forehead_outer(p: Vec2) -> f32 {
     span * lines
 }
 
+/// AU4's vertical furrows between the brows, one on each side of the midline. They are laid
+/// out at rest ([`GLABELLA_FURROW`]) where the corrugator's pull and the brows' targets draw
+/// them to at E: medial of the brow heads, whose skin moves most, so that they stand upright
+/// beside the midline (drawn 3.5 mm out at the foot, they met in a V at the nose's root).
 fn glabella_vertical(p: Vec2) -> f32 {
-    let d = segment_distance(p, Vec2::new(0.035, 7.40), Vec2::new(0.05, 7.57));
-    1.2 * groove(d, 0.012)
+    let [bottom, top] = GLABELLA_FURROW;
+    1.2 * groove(segment_distance(p, bottom, top), 0.012)
 }
+
+/// Where AU4's furrow on the person's left runs at rest, from its foot to its top (rest-space
+/// x and y, decimetres).
+pub(crate) const GLABELLA_FURROW: [Vec2; 2] = [Vec2::new(0.115, 7.42), Vec2::new(0.075, 7.58)];
 
 fn glabella_horizontal(p: Vec2) -> f32 {
     let d = segment_distance(p, Vec2::new(0.0, 7.37), Vec2::new(0.075, 7.39));
