@@ -9,6 +9,9 @@
 
 use std::sync::OnceLock;
 
+/// Luminance weights of linear Rec. 709 (sRGB) red, green and blue.
+pub const REC709: [f32; 3] = [0.2126, 0.7152, 0.0722];
+
 /// An RGB image, 8 bits per channel, sRGB-encoded, rows top to bottom, no padding.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct RgbImage {
@@ -79,13 +82,14 @@ impl RgbImage {
     /// The same image in shades of grey: each pixel's luminance (Rec. 709 weights on linear
     /// light), encoded back to sRGB in all three channels.
     pub fn to_grayscale(&self) -> RgbImage {
+        let [r, g, b] = REC709;
         let linear: [f32; 256] = std::array::from_fn(|v| srgb_to_linear(v as f32 / 255.0));
         let encode = Srgb8::new();
         let data = self
             .data
             .chunks_exact(3)
             .flat_map(|p| {
-                let y = 0.2126 * linear[p[0] as usize] + 0.7152 * linear[p[1] as usize] + 0.0722 * linear[p[2] as usize];
+                let y = r * linear[p[0] as usize] + g * linear[p[1] as usize] + b * linear[p[2] as usize];
                 [encode.encode(y); 3]
             })
             .collect();

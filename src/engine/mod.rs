@@ -448,13 +448,17 @@ mod tests {
         fn is_red(&self, hit: &raster::Hit) -> bool {
             hit.item == Self::item(Part::Skin) && self.red[hit.triangle as usize]
         }
+
+        /// How many of the picture's samples `which` picks.
+        fn samples(&self, which: impl Fn(&raster::Hit) -> bool) -> usize {
+            self.visibility.samples.iter().flatten().filter(|hit| which(hit)).count()
+        }
     }
 
     /// The samples at 242×240 of the lips' red and of the upper teeth that the camera sees.
     fn mouth_samples(expression: &str, identity: &Identity) -> (usize, usize) {
         let view = MouthView::of(&Catalog::built_in().parse(expression).unwrap(), identity);
-        let hits = || view.visibility.samples.iter().flatten();
-        (hits().filter(|hit| view.is_red(hit)).count(), hits().filter(|hit| hit.item == MouthView::item(Part::TeethUpper)).count())
+        (view.samples(|hit| view.is_red(hit)), view.samples(|hit| hit.item == MouthView::item(Part::TeethUpper)))
     }
 
     /// A beard leaves the mouth in view: it grows on the face, not inside the mouth, its
@@ -594,7 +598,7 @@ mod tests {
     fn teeth_samples(expression: &str, identity: &Identity) -> usize {
         let view = MouthView::of(&Catalog::built_in().parse(expression).unwrap(), identity);
         let teeth = [Part::TeethUpper, Part::TeethLower].map(MouthView::item);
-        view.visibility.samples.iter().flatten().filter(|hit| teeth.contains(&hit.item)).count()
+        view.samples(|hit| teeth.contains(&hit.item))
     }
 
     /// FACS: AU13 keeps the lips together as it pulls their corners up (a parted mouth over

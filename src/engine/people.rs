@@ -365,7 +365,8 @@ mod tests {
     /// in brightness (wf1's hand-made lips: 39 %).
     #[test]
     fn generated_lips_are_rose_brown_not_lipstick() {
-        let bright = |c: [f32; 3]| 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
+        let [r, g, b] = crate::engine::image::REC709;
+        let bright = |c: [f32; 3]| r * c[0] + g * c[1] + b * c[2];
         for origin in Origin::ALL {
             let (light, dark) = origin.skin_range();
             for t in [0.0, 0.5, 1.0] {

@@ -665,14 +665,16 @@ mod tests {
     /// The distance between the heads of the two brows: the mean x of the skin vertices within
     /// 0.5 cm of the left brow head (the corrugator's insertion) minus that of their mirror images.
     fn brow_head_gap(posed: &Posed) -> f32 {
-        let model = FaceModel::embedded();
         let head = Vec3::from(Deformer::named("corrugator").expect("corrugator").centre);
-        let skin = model.part(Part::Skin).vertices.clone();
-        let mean_x = |centre: Vec3| {
-            let near: Vec<f32> = skin.clone().map(|i| i as usize).filter(|&i| (model.rest[i] - centre).length() < 0.05).map(|i| posed.positions[i].x).collect();
-            near.iter().sum::<f32>() / near.len().max(1) as f32
-        };
+        let mean_x = |centre: Vec3| mean_posed_x(posed, |rest| (rest - centre).length() < 0.05);
         mean_x(head) - mean_x(head * Vec3::new(-1.0, 1.0, 1.0))
+    }
+
+    /// The mean posed x of the skin vertices whose rest positions `near` picks (0 if none).
+    fn mean_posed_x(posed: &Posed, near: impl Fn(Vec3) -> bool) -> f32 {
+        let model = FaceModel::embedded();
+        let xs: Vec<f32> = model.part(Part::Skin).vertices.clone().map(|i| i as usize).filter(|&i| near(model.rest[i])).map(|i| posed.positions[i].x).collect();
+        xs.iter().sum::<f32>() / xs.len().max(1) as f32
     }
 
     /// AU4 and AU44 draw the brow heads together on the mesh on every identity (by at least
@@ -695,16 +697,6 @@ mod tests {
         assert!(failures.is_empty(), "{}", failures.join("\n"));
     }
 
-    /// The mean posed x of the front skin within 4 mm (by rest x and y) of rest point `at` on the
-    /// person's left.
-    fn posed_x_near(posed: &Posed, at: glam::Vec2) -> f32 {
-        let model = FaceModel::embedded();
-        let near: Vec<f32> = model.part(Part::Skin).vertices.clone().map(|i| i as usize)
-            .filter(|&i| model.rest[i].z > 1.3 && (model.rest[i].truncate() - at).length() < 0.04)
-            .map(|i| posed.positions[i].x).collect();
-        near.iter().sum::<f32>() / near.len().max(1) as f32
-    }
-
     /// FACS: AU4's vertical furrows stand between the brows, upright beside the midline. At 4E
     /// on each of the eight evaluation people the skin where each furrow is drawn lies 3–6 mm
     /// from the midline at its foot and at its top, the foot at least 0.7 as far out as the top
@@ -715,7 +707,8 @@ mod tests {
         use crate::engine::shade::GLABELLA_FURROW;
         assert_on_the_eight(|identity| {
             let posed = posed_on(&identity.id, "4E").0;
-            let [foot, top] = GLABELLA_FURROW.map(|p| posed_x_near(&posed, p));
+            // The front skin within 4 mm (by rest x and y) of each end of the left furrow.
+            let [foot, top] = GLABELLA_FURROW.map(|at| mean_posed_x(&posed, |rest| rest.z > 1.3 && (rest.truncate() - at).length() < 0.04));
             println!("{}: at 4E the furrow's foot {foot:.4} dm and top {top:.4} dm from the midline", identity.id);
             let out = |x: f32| (0.03..=0.06).contains(&x);
             (!(out(foot) && out(top) && foot >= 0.7 * top)).then(|| format!("foot {foot:.4}, top {top:.4}"))

@@ -31,6 +31,7 @@ use glam::{Vec2, Vec3};
 use super::asset::{FaceModel, Part};
 use super::body::Body;
 use super::identity::{HairTexture, Identity};
+use super::image::REC709;
 use super::hair::{Hair, HairModel, Hairline};
 use super::{BODY_PART, HAIR_PART};
 use super::look::{Backdrop, Lighting, Look};
@@ -655,19 +656,13 @@ pub struct FaceShader<'a> {
 
 /// The colour of the light that reaches a cast shadow on the skin of colour `skin` (linear):
 /// much of it is the key light thrown back by the lit skin around (the nose's lit side onto the
-/// cheek in its shadow) and scattered under the skin, so it takes the skin's hue, here at
-/// [`SKIN_BOUNCE`] of the way from white, at the same luminance. A shadow on the skin then
-/// reads as darker skin, not as a grey patch under the cool fill.
+/// cheek in its shadow) and scattered under the skin, so it takes the skin's hue at the
+/// luminance of white. A shadow on the skin then reads as darker skin, not as a grey patch
+/// under the cool fill.
 fn skin_bounce(skin: Vec3) -> Vec3 {
-    let luminance = skin.dot(REC709);
-    if luminance > 0.0 { Vec3::ONE.lerp(skin / luminance, SKIN_BOUNCE) } else { Vec3::ONE }
+    let luminance = skin.dot(Vec3::from(REC709));
+    if luminance > 0.0 { skin / luminance } else { Vec3::ONE }
 }
-
-/// How far a cast shadow's light on the skin takes the skin's hue (0: white, 1: the skin's).
-const SKIN_BOUNCE: f32 = 1.0;
-
-/// Luminance weights of linear Rec. 709 (sRGB) colour.
-const REC709: Vec3 = Vec3::new(0.2126, 0.7152, 0.0722);
 
 impl<'a> FaceShader<'a> {
     pub fn new(model: &'a FaceModel, posed: &'a Posed, identity: &'a Identity, look: &Look, camera: &Camera) -> FaceShader<'a> {
@@ -2276,7 +2271,7 @@ mod tests {
     fn a_cast_shadow_on_skin_keeps_the_skins_hue() {
         for skin in [Vec3::new(0.62, 0.36, 0.26), Vec3::new(0.2, 0.09, 0.05)] {
             let bounce = skin_bounce(skin);
-            assert!((bounce.dot(REC709) - 1.0).abs() < 1e-5, "{bounce}");
+            assert!((bounce.dot(Vec3::from(REC709)) - 1.0).abs() < 1e-5, "{bounce}");
             assert!((bounce.x / bounce.z - skin.x / skin.z).abs() < 1e-4 && (bounce.y / bounce.z - skin.y / skin.z).abs() < 1e-4, "{bounce}");
             assert_eq!(key_share(0.15 * bounce, 1.0, 0.35), Vec3::ONE);
         }
@@ -2327,7 +2322,7 @@ mod tests {
     /// (brows lerped to a light grey at 0.6 of the hair's greying read about 0.6 of it).
     #[test]
     fn greying_brows_keep_their_pigment_longer_than_the_hair() {
-        let bright = |c: Vec3| c.dot(Vec3::new(0.2126, 0.7152, 0.0722));
+        let bright = |c: Vec3| c.dot(Vec3::from(REC709));
         let mut greying = 0;
         for identity in crate::engine::identity::IdentityTable::built_in().iter().filter(|i| i.hair_grey >= 0.5) {
             let (brows, hair) = (bright(brow_colour(identity)), bright(hair_pigment(identity, identity.hair_grey)));
