@@ -541,6 +541,7 @@ mod tests {
     use crate::engine::identity::{assert_on_the_eight, IdentityTable, EVALUATION_PEOPLE};
     use crate::engine::rig::AuBasis;
     use crate::facs::Catalog;
+    use glam::Vec2;
 
     fn posed_on(identity: &str, expression: &str) -> (Posed, Arc<PreparedIdentity>) {
         let model = FaceModel::embedded();
@@ -675,6 +676,47 @@ mod tests {
         let model = FaceModel::embedded();
         let xs: Vec<f32> = model.part(Part::Skin).vertices.clone().map(|i| i as usize).filter(|&i| near(model.rest[i])).map(|i| posed.positions[i].x).collect();
         xs.iter().sum::<f32>() / xs.len().max(1) as f32
+    }
+
+    /// Where the skin at rest point `at` (rest-space x and y, on the front of the face) lies on
+    /// the posed mesh: the front skin triangle that covers `at` at rest, by its barycentric
+    /// weights there.
+    fn posed_at_rest(posed: &Posed, at: Vec2) -> Option<Vec3> {
+        let model = FaceModel::embedded();
+        let skin = model.part(Part::Skin);
+        skin.triangles.iter().filter_map(|tri| {
+            let [a, b, c] = tri.map(|i| model.rest[i as usize]);
+            if a.z.min(b.z).min(c.z) < 1.3 {
+                return None;
+            }
+            let (ab, ac, ap) = (b.truncate() - a.truncate(), c.truncate() - a.truncate(), at - a.truncate());
+            let det = ab.perp_dot(ac);
+            if det.abs() < 1e-12 {
+                return None;
+            }
+            let (v, w) = (ap.perp_dot(ac) / det, ab.perp_dot(ap) / det);
+            let u = 1.0 - v - w;
+            (u >= 0.0 && v >= 0.0 && w >= 0.0).then(|| {
+                let [pa, pb, pc] = tri.map(|i| posed.positions[i as usize]);
+                (a.z + b.z + c.z, pa * u + pb * v + pc * w)
+            })
+        }).max_by(|x, y| x.0.total_cmp(&y.0)).map(|(_, p)| p)
+    }
+
+    /// FACS: AU41's wrinkle lies across the root of the nose. At 41E on each of the eight
+    /// evaluation people the skin where each bend of the wrinkle is drawn lies within 1.5 mm of
+    /// the height of its middle (drawn level at rest, as before, its ends stood 3.0–6.5 mm above
+    /// its middle: a V pointing down the nose).
+    #[test]
+    fn au41_wrinkle_lies_across_the_nose_root() {
+        use crate::engine::shade::NOSE_ROOT_WRINKLE;
+        assert_on_the_eight(|identity| {
+            let posed = posed_on(&identity.id, "41E").0;
+            let heights: Vec<f32> = NOSE_ROOT_WRINKLE.iter().map(|&at| posed_at_rest(&posed, at).map_or(f32::NAN, |p| p.y)).collect();
+            let rises: Vec<f32> = heights.iter().map(|y| y - heights[0]).collect();
+            println!("{}: at 41E the wrinkle's bends stand {rises:+.4?} dm above its middle", identity.id);
+            (!rises.iter().all(|r| r.abs() <= 0.015)).then(|| format!("rises {rises:?}"))
+        });
     }
 
     /// AU4 and AU44 draw the brow heads together on the mesh on every identity (by at least

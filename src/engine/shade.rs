@@ -1151,14 +1151,17 @@ impl<'a> FaceShader<'a> {
     /// Teeth: enamel is translucent, so a tooth in the lip's shadow still glows with the light
     /// it takes in below the shadow's edge and from the lips around it (about half the key light
     /// reaches it).
-    fn shade_teeth(&self, f: &Fragment) -> Vec3 {
+    /// For the same reason it is dimmed less than the rest of the mouth (ENAMEL_GLOW): at the
+    /// front of a smile the teeth are about as bright as the lit skin, not grey.
+    fn shade_teeth(&self, f: &Fragment, upper: bool) -> Vec3 {
         let rest = self.rest(f);
         let reach = 0.45 + 0.55 * self.key_reach(f);
         let surface = Surface { wrap: 0.2, specular: 0.5, shininess: 40.0, open: 1.0, tissue: true, bounce: Vec3::ONE };
         // The arch is a few flat facets: its normals turn half toward the viewer, so that a
         // tooth reads as one rounded surface, not as a lit and a dark facet.
         let normal = (f.normal + f.view_dir).normalize_or(f.normal);
-        self.lit_reached(f, normal, teeth_albedo(rest.x), surface, reach) * Self::inside_mouth(rest)
+        let albedo = teeth_albedo(rest, upper);
+        self.lit_reached(f, normal, albedo, surface, reach) * Self::inside_mouth(rest) * ENAMEL_GLOW
     }
 
     /// Lashes: the lash cards are drawn as clumps of lashes, dense at the lid margin and
@@ -1269,7 +1272,7 @@ impl Shader for FaceShader<'_> {
         match Part::from_id(f.part) {
             Some(Part::Skin) | None => self.shade_skin(f),
             Some(part @ (Part::EyeLeft | Part::EyeRight)) => self.shade_eye(f, Self::eye_index(part)),
-            Some(Part::TeethUpper | Part::TeethLower) => self.shade_teeth(f),
+            Some(part @ (Part::TeethUpper | Part::TeethLower)) => self.shade_teeth(f, part == Part::TeethUpper),
             Some(Part::Tongue) => self.shade_tongue(f),
             Some(Part::LashesUpper) => self.shade_lashes(f, &UPPER_LASHES),
             Some(Part::LashesLower) => self.shade_lashes(f, &LOWER_LASHES),
@@ -1306,15 +1309,70 @@ const LOWER_LASHES: Lashes = Lashes { clumps: 18.0, arc: 0.36, length: 0.05, ban
 /// 8 mm wide, the others 6 mm).
 const TOOTH_EDGES: [f32; 6] = [0.0, 0.08, 0.14, 0.2, 0.26, 0.32];
 
-/// Enamel at `x` across the arch: off-white, each tooth rounded (a little darker toward its
-/// sides, where its surface turns away) with a narrow soft gap to the next.
-fn teeth_albedo(x: f32) -> Vec3 {
-    let x = x.abs();
+/// The biting edges of the upper and lower teeth at rest, from the midline back along the arch
+/// (x, y; decimetres): the front rows of the teeth meshes, rising toward the back teeth.
+const UPPER_INCISAL_EDGE: [Vec2; 7] = [
+    Vec2::new(0.0, 6.600),
+    Vec2::new(0.089, 6.604),
+    Vec2::new(0.174, 6.620),
+    Vec2::new(0.221, 6.640),
+    Vec2::new(0.254, 6.657),
+    Vec2::new(0.284, 6.676),
+    Vec2::new(0.311, 6.704),
+];
+const LOWER_INCISAL_EDGE: [Vec2; 7] = [
+    Vec2::new(0.0, 6.593),
+    Vec2::new(0.091, 6.596),
+    Vec2::new(0.177, 6.612),
+    Vec2::new(0.222, 6.631),
+    Vec2::new(0.256, 6.649),
+    Vec2::new(0.284, 6.665),
+    Vec2::new(0.306, 6.694),
+];
+
+/// Enamel (linear RGB): off-white, thinning to a translucent bluish grey at the biting edge,
+/// yellower toward the neck, where the dentine shows through.
+/// How much less than the rest of the mouth's inside the teeth are dimmed.
+const ENAMEL_GLOW: f32 = 1.25;
+
+const ENAMEL: Vec3 = Vec3::new(0.84, 0.80, 0.70);
+const INCISAL_EDGE: Vec3 = Vec3::new(0.55, 0.58, 0.62);
+const GUM: Vec3 = Vec3::new(0.60, 0.22, 0.22);
+
+/// How far above the biting edge (toward the gum, decimetres) the enamel turns translucent, the
+/// gap between teeth opens into a notch, and the gum's scalloped line lies between two teeth
+/// and over a tooth's middle.
+const TRANSLUCENT_EDGE: f32 = 0.018;
+const NOTCH: f32 = 0.02;
+const GUM_LINE: [f32; 2] = [0.095, 0.11];
+
+/// The height of `edge` (a line of points by x) at `x`, linearly between its points.
+fn edge_height(edge: &[Vec2], x: f32) -> f32 {
+    let last = edge[edge.len() - 1];
+    edge.windows(2).find(|w| x < w[1].x).map_or(last.y, |w| w[0].y + (w[1].y - w[0].y) * ((x - w[0].x) / (w[1].x - w[0].x)).max(0.0))
+}
+
+/// Enamel at rest position `rest` on the upper or lower teeth: off-white, each tooth rounded
+/// (a little darker toward its sides, where its surface turns away) with a narrow soft gap to the
+/// next that opens into a dark notch at the biting edge, where the enamel is translucent;
+/// yellower toward the neck, and the gum above the upper teeth (below the lower), its line
+/// arching over each tooth.
+fn teeth_albedo(rest: Vec3, upper: bool) -> Vec3 {
+    let x = rest.x.abs();
     let tooth = TOOTH_EDGES.windows(2).find(|w| x < w[1]).unwrap_or(&TOOTH_EDGES[4..]);
     let across = ((x - tooth[0]) / (tooth[1] - tooth[0])).clamp(0.0, 1.0);
     let rounded = 1.0 - 0.22 * (2.0 * across - 1.0).powi(4);
-    let gap = TOOTH_EDGES.iter().map(|&e| (-((x - e) / 0.0035).powi(2)).exp()).fold(0.0, f32::max);
-    Vec3::new(0.84, 0.80, 0.70) * rounded * (1.0 - 0.4 * gap)
+    let edge = if upper { edge_height(&UPPER_INCISAL_EDGE, x) } else { edge_height(&LOWER_INCISAL_EDGE, x) };
+    let from_edge = if upper { rest.y - edge } else { edge - rest.y }.max(0.0);
+    let notch = 1.0 - smoothstep(0.0, NOTCH, from_edge);
+    let gap_width = 0.0035 + 0.006 * notch;
+    let gap = TOOTH_EDGES.iter().map(|&e| (-((x - e) / gap_width).powi(2)).exp()).fold(0.0, f32::max);
+    let enamel = (ENAMEL * rounded)
+        .lerp(INCISAL_EDGE, 0.5 * (1.0 - smoothstep(0.0, TRANSLUCENT_EDGE, from_edge)))
+        .lerp(ENAMEL * Vec3::new(0.97, 0.9, 0.76), smoothstep(0.04, 0.1, from_edge));
+    let gum_line = GUM_LINE[0] + (GUM_LINE[1] - GUM_LINE[0]) * (1.0 - (2.0 * across - 1.0).powi(2));
+    let gum = smoothstep(gum_line - 0.004, gum_line + 0.004, from_edge);
+    enamel.lerp(GUM, gum) * (1.0 - (0.4 + 0.4 * notch) * gap * (1.0 - gum))
 }
 
 /// `x^e` for a specular lobe: a whole exponent up to 64 (the skin's 18, the mouth's 40) by
@@ -1598,6 +1656,13 @@ struct ScalpPaint {
     parting: f32,
 }
 
+/// The scalp in a parting: the skin's albedo dimmed by the hair standing on both sides of it.
+const PARTING_SKIN: f32 = 0.7;
+/// How far a parting wanders from its line (decimetres, over a few millimetres along it).
+const PARTING_WANDER: f32 = 0.004;
+/// How much of a parting the hairs crossing it hide where they cross.
+const PARTING_CROSSED: f32 = 0.45;
+
 /// The painted scalp at `rest` of `identity`, whose hairline is `hairline`.
 fn scalp_paint(identity: &Identity, hairline: Hairline, rest: Vec3, pixel: f32) -> ScalpPaint {
     let parting = super::hair::parting_x(identity.parting);
@@ -1613,17 +1678,24 @@ fn scalp_paint(identity: &Identity, hairline: Hairline, rest: Vec3, pixel: f32) 
     let curled = matches!(identity.hair_texture, HairTexture::Curly | HairTexture::Coiled);
     let Some(x) = parting.filter(|_| !curled) else { return ScalpPaint { hair, streaks, parting: 0.0 } };
     let half = super::hair::PARTING_HALF_WIDTH;
-    let line = (1.0 - smoothstep(0.5 * half, half, (rest.x - x).abs())) * smoothstep(0.2, 0.6, rest.z);
+    // A parting is not ruled: it wanders a little from side to side, and hairs from either
+    // side cross it here and there (drawn straight and even, it read as a seam).
+    let along = Vec3::new(0.0, rest.y, rest.z);
+    let wander = PARTING_WANDER * (2.0 * value_noise(along * 15.0) - 1.0);
+    let line = (1.0 - smoothstep(0.5 * half, half, (rest.x - x - wander).abs())) * smoothstep(0.2, 0.6, rest.z);
+    if line == 0.0 {
+        return ScalpPaint { hair, streaks, parting: 0.0 };
+    }
+    let crossed = 1.0 - PARTING_CROSSED * smoothstep(0.3, 0.7, seen_over(value_noise(along * 50.0 + Vec3::X * 7.0), 50.0 * pixel));
     // The parting runs through the hair, not beyond the roots into the painted fringe.
-    let parting = if line == 0.0 { 0.0 } else { 0.75 * line * hairline.mask(rest, 0.5) };
-    ScalpPaint { hair, streaks, parting }
+    ScalpPaint { hair, streaks, parting: 0.75 * line * crossed * hairline.mask(rest, 0.5) }
 }
 
 impl ScalpPaint {
     /// The painted scalp's albedo over `skin`: the hair, with the parting's line of skin.
     /// Gaps between cards show hair, not skin.
     fn over(&self, skin: Vec3) -> Vec3 {
-        self.hair.lerp(skin * 0.85, self.parting)
+        self.hair.lerp(skin * PARTING_SKIN, self.parting)
     }
 }
 
@@ -1650,7 +1722,7 @@ const PATTERNS: [(&str, Relief); 13] = [
     ("forehead_inner", Relief { pattern: forehead_inner, bounds: [0.0, 0.32, 7.6, 8.05] }),
     ("forehead_outer", Relief { pattern: forehead_outer, bounds: [0.08, 0.6, 7.55, 8.0] }),
     ("glabella_vertical", Relief { pattern: glabella_vertical, bounds: [0.0, 0.16, 7.35, 7.65] }),
-    ("glabella_horizontal", Relief { pattern: glabella_horizontal, bounds: [0.0, 0.12, 7.32, 7.44] }),
+    ("glabella_horizontal", Relief { pattern: glabella_horizontal, bounds: [0.0, 0.12, 7.29, 7.44] }),
     ("crows_feet", Relief { pattern: crows_feet, bounds: [0.45, 0.64, 7.18, 7.42] }),
     ("lower_lid_bulge", Relief { pattern: lower_lid_bulge, bounds: [0.14, 0.47, 7.08, 7.22] }),
     ("nose_wrinkles", Relief { pattern: nose_wrinkles, bounds: [0.0, 0.17, 7.14, 7.36] }),
@@ -1716,10 +1788,18 @@ fn glabella_vertical(p: Vec2) -> f32 {
 /// x and y, decimetres).
 pub(crate) const GLABELLA_FURROW: [Vec2; 2] = [Vec2::new(0.115, 7.42), Vec2::new(0.075, 7.58)];
 
+/// AU41's wrinkle across the root of the nose, level when the procerus draws the skin between
+/// the brows down. It is laid out at rest ([`NOSE_ROOT_WRINKLE`]) where the pull and the brows'
+/// targets draw a level line from, lower toward its ends: the pull draws the midline down most
+/// (drawn level at rest, the wrinkle bent into a V pointing down the nose).
 fn glabella_horizontal(p: Vec2) -> f32 {
-    let d = segment_distance(p, Vec2::new(0.0, 7.37), Vec2::new(0.075, 7.39));
-    groove(d, 0.010)
+    1.5 * groove(polyline_distance(p, &NOSE_ROOT_WRINKLE), 0.011)
 }
+
+/// Where AU41's wrinkle runs at rest, from the midline to its end on the person's left
+/// (rest-space x and y, decimetres).
+pub(crate) const NOSE_ROOT_WRINKLE: [Vec2; 4] =
+    [Vec2::new(0.0, 7.37), Vec2::new(0.025, 7.350), Vec2::new(0.05, 7.339), Vec2::new(0.065, 7.334)];
 
 fn crows_feet(p: Vec2) -> f32 {
     let origin = Vec2::new(0.485, 7.29);
@@ -2263,6 +2343,28 @@ mod tests {
         assert!(warmth(0.25) < warmth(0.5) && warmth(0.75) < warmth(0.5), "warmest in the middle of the edge");
     }
 
+    /// Teeth read as teeth: the enamel at the biting edge is bluer than mid-crown (blue over red
+    /// up by at least a tenth), the gap between two incisors opens into a notch at the edge (at
+    /// most half as bright there as 5 mm up the same gap), and 12 mm above the edge of the upper
+    /// teeth, over a tooth's middle as between two teeth, lies the pink gum (red at least twice
+    /// green); the lower teeth mirror it, the gum below.
+    #[test]
+    fn teeth_have_a_translucent_edge_notches_and_gums() {
+        for (upper, edge, toward_gum) in [(true, UPPER_INCISAL_EDGE, 1.0), (false, LOWER_INCISAL_EDGE, -1.0)] {
+            let at = |x: f32, from_edge: f32| teeth_albedo(Vec3::new(x, edge_height(&edge, x) + toward_gum * from_edge, 1.45), upper);
+            let blueness = |c: Vec3| c.z / c.x;
+            let (edge_enamel, crown) = (at(0.04, 0.002), at(0.04, 0.05));
+            assert!(blueness(edge_enamel) >= 1.1 * blueness(crown), "upper {upper}: edge {edge_enamel}, crown {crown}");
+            let (notch, gap) = (at(0.08, 0.001), at(0.08, 0.05));
+            assert!(notch.element_sum() <= 0.5 * gap.element_sum(), "upper {upper}: notch {notch}, gap {gap}");
+            for x in [0.04, 0.08] {
+                let gum = at(x, 0.12);
+                assert!(gum.x >= 2.0 * gum.y, "upper {upper}: at x {x} 12 mm from the edge {gum}");
+            }
+            assert!(at(0.04, 0.08).y >= 0.7 * crown.y, "upper {upper}: enamel up to the gum");
+        }
+    }
+
     /// The light left in a cast shadow on the skin has the skin's hue at the luminance of white
     /// (under the cool fill a shadow on the nose's side read as a grey patch): the same ratios
     /// of red to green to blue as the skin, luminance 1; white for a grey skin; and the floor
@@ -2290,7 +2392,8 @@ mod tests {
     }
 
     /// The scalp under grey hair is painted grey (not in the pigment alone, a dark hole at the
-    /// parting), and straight hair shows a thin line of scalp where it parts, curls none.
+    /// parting), and straight hair shows a thin line of scalp where it parts, which the hairs
+    /// cross here and there; curls show none.
     #[test]
     fn the_painted_scalp_is_the_hairs_colour_with_a_thin_parting() {
         let table = crate::engine::identity::IdentityTable::built_in();
@@ -2301,11 +2404,20 @@ mod tests {
         assert!(luma(scalp_paint(&grey, Hairline::of(&grey), top, 0.0).over(skin)) > 0.5 * luma(hair_pigment(&grey, grey.hair_grey)));
         assert!(luma(hair_pigment(&grey, grey.hair_grey)) > 1.3 * luma(grey.hair));
         let mut straight = table.get("wf1").unwrap().clone();
-        let parting = Vec3::new(0.0, 8.3, 0.8);
-        let beside = parting + Vec3::X * 3.0 * crate::engine::hair::PARTING_HALF_WIDTH;
-        assert!(scalp_paint(&straight, Hairline::of(&straight), parting, 0.0).over(skin).distance(skin * 0.85) < 0.5 * scalp_paint(&straight, Hairline::of(&straight), beside, 0.0).over(skin).distance(skin * 0.85));
+        // Along 2 cm of the parting (wf1 parts in the middle) and 1.8 mm beside it.
+        let along: Vec<Vec3> = (0..80).map(|k| Vec3::new(0.0, 8.3, 0.7 + 0.0025 * k as f32)).collect();
+        let beside = Vec3::X * 3.0 * crate::engine::hair::PARTING_HALF_WIDTH;
+        let paint = |identity: &Identity, at: Vec3| scalp_paint(identity, Hairline::of(identity), at, 0.0);
+        let from_scalp = |identity: &Identity, shift: Vec3| {
+            along.iter().map(|&at| paint(identity, at + shift).over(skin).distance(skin * PARTING_SKIN)).sum::<f32>() / along.len() as f32
+        };
+        assert!(from_scalp(&straight, Vec3::ZERO) < 0.5 * from_scalp(&straight, beside));
+        // Hairs cross it here and there: the scalp shows more in some places than in others.
+        let shown: Vec<f32> = along.iter().map(|&at| paint(&straight, at).parting).collect();
+        let (least, most) = shown.iter().fold((f32::MAX, f32::MIN), |(l, m), &v| (l.min(v), m.max(v)));
+        assert!(most - least >= 0.25, "the parting shows {least}..{most}");
         straight.hair_texture = HairTexture::Curly;
-        assert!(scalp_paint(&straight, Hairline::of(&straight), parting, 0.0).over(skin).distance(skin * 0.85) > 0.3);
+        assert!(from_scalp(&straight, Vec3::ZERO) > 0.3);
     }
 
     #[test]
