@@ -1330,11 +1330,11 @@ const LOWER_INCISAL_EDGE: [Vec2; 7] = [
     Vec2::new(0.306, 6.694),
 ];
 
-/// Enamel (linear RGB): off-white, thinning to a translucent bluish grey at the biting edge,
-/// yellower toward the neck, where the dentine shows through.
 /// How much less than the rest of the mouth's inside the teeth are dimmed.
 const ENAMEL_GLOW: f32 = 1.25;
 
+/// Enamel (linear RGB): off-white, thinning to a translucent bluish grey at the biting edge,
+/// yellower toward the neck, where the dentine shows through.
 const ENAMEL: Vec3 = Vec3::new(0.84, 0.80, 0.70);
 const INCISAL_EDGE: Vec3 = Vec3::new(0.55, 0.58, 0.62);
 const GUM: Vec3 = Vec3::new(0.60, 0.22, 0.22);
@@ -1587,9 +1587,12 @@ pub(crate) fn beard_mask(rest: Vec3) -> f32 {
 /// The fine furrows of the lips' red, running up and down across it about 1.7 mm apart: a
 /// bump on `normal` across them, weighed by `lips` (how much of the red is here). Returns how
 /// deep in a furrow the point lies (0..1, for its shade and its broken sheen); a pixel `pixel`
-/// decimetres wide sees the furrows as it averages them.
+/// decimetres wide sees the furrows as it averages them. The furrows fan out from the middle of
+/// the mouth (upright where the lips meet, leaning outward away from it, more toward the
+/// corners), their spacing and course wander, and they break along their length: on a lattice
+/// in plain x they stood in an even row, like a bar code.
 fn lip_lines(rest: Vec3, lips: f32, pixel: f32, normal: &mut Vec3) -> f32 {
-    let q = Vec3::new(rest.x * LIP_LINES_ACROSS, rest.y * LIP_LINES_ALONG, rest.z * LIP_LINES_ALONG);
+    let q = Vec3::new(lip_lines_across(rest) * LIP_LINES_ACROSS, rest.y * LIP_LINES_ALONG, rest.z * LIP_LINES_ALONG);
     let (n, slope) = value_noise_and_slope(q);
     // Finer than a pixel, the furrows fade into the red's mean.
     let seen = fainter(LIP_LINES_ACROSS * pixel).recip();
@@ -1598,10 +1601,26 @@ fn lip_lines(rest: Vec3, lips: f32, pixel: f32, normal: &mut Vec3) -> f32 {
     (1.0 - smoothstep(0.0, 0.15, (n - 0.5).abs())) * lips * seen
 }
 
+/// Where `rest` lies across the lips' furrows (decimetres at the line where the lips meet): x
+/// fanned out from the middle of the mouth, wandering.
+fn lip_lines_across(rest: Vec3) -> f32 {
+    let wander = LIP_LINES_WANDER * (2.0 * value_noise(Vec3::new(rest.x * 30.0, rest.y * 10.0, 5.0)) - 1.0);
+    rest.x * LIP_LINES_FAN / ((rest.y - LIPS_MEET).abs() + LIP_LINES_FAN) + wander
+}
+
 /// Cells of the lip furrows' noise per decimetre: across them (about 1.7 mm apart) and along
 /// them, up and down the red.
 const LIP_LINES_ACROSS: f32 = 60.0;
-const LIP_LINES_ALONG: f32 = 4.0;
+const LIP_LINES_ALONG: f32 = 8.0;
+
+/// Where the lips meet at rest (y, decimetres), and how far beyond it (decimetres) lies the point
+/// the lips' furrows fan out from: a furrow at x leans outward by x / (its distance from the
+/// meeting line + this).
+const LIPS_MEET: f32 = 6.605;
+const LIP_LINES_FAN: f32 = 0.4;
+
+/// How far (decimetres) the lips' furrows wander from an even spacing, over a few millimetres.
+const LIP_LINES_WANDER: f32 = 0.006;
 
 /// Cells of fibre noise across one hair card: the tone of bundles of fibres.
 const FIBRE_NOISE_ACROSS: f32 = 13.5;
@@ -1680,6 +1699,9 @@ fn scalp_paint(identity: &Identity, hairline: Hairline, rest: Vec3, pixel: f32) 
     let half = super::hair::PARTING_HALF_WIDTH;
     // A parting is not ruled: it wanders a little from side to side, and hairs from either
     // side cross it here and there (drawn straight and even, it read as a seam).
+    if (rest.x - x).abs() >= half + PARTING_WANDER || rest.z <= 0.2 {
+        return ScalpPaint { hair, streaks, parting: 0.0 };
+    }
     let along = Vec3::new(0.0, rest.y, rest.z);
     let wander = PARTING_WANDER * (2.0 * value_noise(along * 15.0) - 1.0);
     let line = (1.0 - smoothstep(0.5 * half, half, (rest.x - x - wander).abs())) * smoothstep(0.2, 0.6, rest.z);
@@ -2573,18 +2595,23 @@ mod tests {
         assert!(high <= 1.25 * low, "spread of the strokes {low:.3}..{high:.3} over a stroke's length");
     }
 
-    /// The lips' red carries fine furrows running up and down it: the furrow pattern varies
-    /// least within 0.15 rad of upright and at least 3× as much across as along; it bends the
+    /// The lips' red carries fine furrows running up and down it, fanning out from the middle
+    /// of the mouth: the furrow pattern varies least within 0.15 rad of the fan's direction
+    /// (upright at the middle, leaning 0.29 rad outward 15 mm from it, on the upper lip) and at
+    /// least 3× as much across as along; its furrows are not evenly spaced (along 2 cm of the
+    /// lower lip the widest of its noise's cells is wider than the narrowest by at least a third
+    /// of their mean width; on a lattice in plain x they were all 1.7 mm); it bends the
     /// normal sideways only; a pixel a dozen furrows wide sees under a third of their spread;
     /// off the red nothing changes.
     #[test]
     fn lip_lines_run_up_and_down_the_red() {
-        let up = std::f32::consts::FRAC_PI_2;
-        for origin in [Vec2::new(0.05, 6.62), Vec2::new(-0.15, 6.7)] {
+        for origin in [Vec2::new(0.05, 6.62), Vec2::new(-0.15, 6.7), Vec2::new(0.15, 6.52)] {
             let furrows = |p: Vec2, pixel: f32| lip_lines(Vec3::new(p.x, p.y, 1.5), 1.0, pixel, &mut { Vec3::Z });
             let close = Grain::of(|p| furrows(p, 0.0), origin, 0.002);
-            println!("lip lines at {origin}: run {:.3} rad, across/along {:.1}, spread {:.3}", close.runs, close.anisotropy, close.spread);
-            assert!(close.off(up) < 0.15, "the furrows run {:.2} rad", close.runs);
+            let lean = origin.x * (origin.y - LIPS_MEET).signum() / ((origin.y - LIPS_MEET).abs() + LIP_LINES_FAN);
+            let fan = 1.0f32.atan2(lean);
+            println!("lip lines at {origin}: run {:.3} rad (the fan {fan:.3}), across/along {:.1}, spread {:.3}", close.runs, close.anisotropy, close.spread);
+            assert!(close.off(fan) < 0.15, "the furrows run {:.2} rad, the fan {fan:.2}", close.runs);
             assert!(close.anisotropy >= 3.0, "variation across/along {:.1}", close.anisotropy);
             let far = Grain::of(|p| furrows(p, 0.2), origin, 0.002);
             assert!(far.spread < close.spread / 3.0, "spread {} seen from far, {} close", far.spread, close.spread);
@@ -2601,6 +2628,15 @@ mod tests {
             assert_eq!(lip_lines(Vec3::new(origin.x, origin.y, 1.5), 0.0, 0.0, &mut normal), 0.0);
             assert_eq!(normal, Vec3::Z);
         }
+        // Where the furrows' noise crosses from one lattice cell to the next, along 2 cm of the
+        // lower lip: not an even row.
+        let cell = |i: usize| (lip_lines_across(Vec3::new(-0.1 + i as f32 * 0.0001, 6.55, 1.5)) * LIP_LINES_ACROSS).floor();
+        let steps: Vec<f32> = (1..2000).filter(|&i| cell(i) != cell(i - 1)).map(|i| i as f32 * 0.0001).collect();
+        let gaps: Vec<f32> = steps.windows(2).map(|w| w[1] - w[0]).collect();
+        let mean = gaps.iter().sum::<f32>() / gaps.len() as f32;
+        let (least, most) = gaps.iter().fold((f32::MAX, f32::MIN), |(l, m), &g| (l.min(g), m.max(g)));
+        println!("{} cells along 2 cm, {least:.4}..{most:.4} dm wide, {mean:.4} on average", steps.len());
+        assert!(gaps.len() >= 8 && most - least >= mean / 3.0, "cells {gaps:?}");
     }
 
     /// The eight corners of a cell hash side by side as [`hash_whole`] hashes each, bit for
