@@ -742,15 +742,15 @@ mod tests {
     /// FACS: AU4's vertical furrows stand between the brows, upright beside the midline. At 4E
     /// on each of the eight evaluation people the skin where each furrow is drawn lies 3–6 mm
     /// from the midline at its foot and at its top, the foot at least 0.7 as far out as the top
-    /// (3.7–4.4 mm and 4.6–5.0 mm; drawn 3.5 mm out at the foot, as before, the foot came to
-    /// 0.4–0.6 mm from the midline and the two furrows met in a V at the nose's root).
+    /// (4.2–4.8 mm and 5.5–5.9 mm, read through the skin triangle that covers each end at rest;
+    /// drawn 3.5 mm out at the foot, as before, the foot came to 0.4–0.6 mm from the midline,
+    /// as means of the skin within 4 mm, and the two furrows met in a V at the nose's root).
     #[test]
     fn au4_furrows_stand_upright_between_the_brows() {
         use crate::engine::shade::GLABELLA_FURROW;
         assert_on_the_eight(|identity| {
             let posed = posed_on(&identity.id, "4E").0;
-            // The front skin within 4 mm (by rest x and y) of each end of the left furrow.
-            let [foot, top] = GLABELLA_FURROW.map(|at| mean_posed_x(&posed, |rest| rest.z > 1.3 && (rest.truncate() - at).length() < 0.04));
+            let [foot, top] = GLABELLA_FURROW.map(|at| posed_at_rest(&posed, at).map_or(f32::NAN, |p| p.x));
             println!("{}: at 4E the furrow's foot {foot:.4} dm and top {top:.4} dm from the midline", identity.id);
             let out = |x: f32| (0.03..=0.06).contains(&x);
             (!(out(foot) && out(top) && foot >= 0.7 * top)).then(|| format!("foot {foot:.4}, top {top:.4}"))

@@ -1153,14 +1153,14 @@ impl<'a> FaceShader<'a> {
     /// reaches it).
     /// For the same reason it is dimmed less than the rest of the mouth (ENAMEL_GLOW): at the
     /// front of a smile the teeth are about as bright as the lit skin, not grey.
-    fn shade_teeth(&self, f: &Fragment, upper: bool) -> Vec3 {
+    fn shade_teeth(&self, f: &Fragment, row: &TeethRow) -> Vec3 {
         let rest = self.rest(f);
         let reach = 0.45 + 0.55 * self.key_reach(f);
         let surface = Surface { wrap: 0.2, specular: 0.5, shininess: 40.0, open: 1.0, tissue: true, bounce: Vec3::ONE };
         // The arch is a few flat facets: its normals turn half toward the viewer, so that a
         // tooth reads as one rounded surface, not as a lit and a dark facet.
         let normal = (f.normal + f.view_dir).normalize_or(f.normal);
-        let albedo = teeth_albedo(rest, upper);
+        let albedo = teeth_albedo(rest, row);
         self.lit_reached(f, normal, albedo, surface, reach) * Self::inside_mouth(rest) * ENAMEL_GLOW
     }
 
@@ -1272,7 +1272,8 @@ impl Shader for FaceShader<'_> {
         match Part::from_id(f.part) {
             Some(Part::Skin) | None => self.shade_skin(f),
             Some(part @ (Part::EyeLeft | Part::EyeRight)) => self.shade_eye(f, Self::eye_index(part)),
-            Some(part @ (Part::TeethUpper | Part::TeethLower)) => self.shade_teeth(f, part == Part::TeethUpper),
+            Some(Part::TeethUpper) => self.shade_teeth(f, &UPPER_TEETH),
+            Some(Part::TeethLower) => self.shade_teeth(f, &LOWER_TEETH),
             Some(Part::Tongue) => self.shade_tongue(f),
             Some(Part::LashesUpper) => self.shade_lashes(f, &UPPER_LASHES),
             Some(Part::LashesLower) => self.shade_lashes(f, &LOWER_LASHES),
@@ -1309,26 +1310,38 @@ const LOWER_LASHES: Lashes = Lashes { clumps: 18.0, arc: 0.36, length: 0.05, ban
 /// 8 mm wide, the others 6 mm).
 const TOOTH_EDGES: [f32; 6] = [0.0, 0.08, 0.14, 0.2, 0.26, 0.32];
 
-/// The biting edges of the upper and lower teeth at rest, from the midline back along the arch
-/// (x, y; decimetres): the front rows of the teeth meshes, rising toward the back teeth.
-const UPPER_INCISAL_EDGE: [Vec2; 7] = [
-    Vec2::new(0.0, 6.600),
-    Vec2::new(0.089, 6.604),
-    Vec2::new(0.174, 6.620),
-    Vec2::new(0.221, 6.640),
-    Vec2::new(0.254, 6.657),
-    Vec2::new(0.284, 6.676),
-    Vec2::new(0.311, 6.704),
-];
-const LOWER_INCISAL_EDGE: [Vec2; 7] = [
-    Vec2::new(0.0, 6.593),
-    Vec2::new(0.091, 6.596),
-    Vec2::new(0.177, 6.612),
-    Vec2::new(0.222, 6.631),
-    Vec2::new(0.256, 6.649),
-    Vec2::new(0.284, 6.665),
-    Vec2::new(0.306, 6.694),
-];
+/// A row of teeth: its biting edge at rest, from the midline back along the arch (x, y;
+/// decimetres: the front row of its mesh, rising toward the back teeth), and which way its gum
+/// lies from it in y (up for the upper teeth, down for the lower).
+struct TeethRow {
+    edge: [Vec2; 7],
+    toward_gum: f32,
+}
+
+const UPPER_TEETH: TeethRow = TeethRow {
+    edge: [
+        Vec2::new(0.0, 6.600),
+        Vec2::new(0.089, 6.604),
+        Vec2::new(0.174, 6.620),
+        Vec2::new(0.221, 6.640),
+        Vec2::new(0.254, 6.657),
+        Vec2::new(0.284, 6.676),
+        Vec2::new(0.311, 6.704),
+    ],
+    toward_gum: 1.0,
+};
+const LOWER_TEETH: TeethRow = TeethRow {
+    edge: [
+        Vec2::new(0.0, 6.593),
+        Vec2::new(0.091, 6.596),
+        Vec2::new(0.177, 6.612),
+        Vec2::new(0.222, 6.631),
+        Vec2::new(0.256, 6.649),
+        Vec2::new(0.284, 6.665),
+        Vec2::new(0.306, 6.694),
+    ],
+    toward_gum: -1.0,
+};
 
 /// How much less than the rest of the mouth's inside the teeth are dimmed.
 const ENAMEL_GLOW: f32 = 1.25;
@@ -1352,18 +1365,17 @@ fn edge_height(edge: &[Vec2], x: f32) -> f32 {
     edge.windows(2).find(|w| x < w[1].x).map_or(last.y, |w| w[0].y + (w[1].y - w[0].y) * ((x - w[0].x) / (w[1].x - w[0].x)).max(0.0))
 }
 
-/// Enamel at rest position `rest` on the upper or lower teeth: off-white, each tooth rounded
+/// Enamel at rest position `rest` on the teeth of `row`: off-white, each tooth rounded
 /// (a little darker toward its sides, where its surface turns away) with a narrow soft gap to the
 /// next that opens into a dark notch at the biting edge, where the enamel is translucent;
 /// yellower toward the neck, and the gum above the upper teeth (below the lower), its line
 /// arching over each tooth.
-fn teeth_albedo(rest: Vec3, upper: bool) -> Vec3 {
+fn teeth_albedo(rest: Vec3, row: &TeethRow) -> Vec3 {
     let x = rest.x.abs();
     let tooth = TOOTH_EDGES.windows(2).find(|w| x < w[1]).unwrap_or(&TOOTH_EDGES[4..]);
     let across = ((x - tooth[0]) / (tooth[1] - tooth[0])).clamp(0.0, 1.0);
     let rounded = 1.0 - 0.22 * (2.0 * across - 1.0).powi(4);
-    let edge = if upper { edge_height(&UPPER_INCISAL_EDGE, x) } else { edge_height(&LOWER_INCISAL_EDGE, x) };
-    let from_edge = if upper { rest.y - edge } else { edge - rest.y }.max(0.0);
+    let from_edge = (row.toward_gum * (rest.y - edge_height(&row.edge, x))).max(0.0);
     let notch = 1.0 - smoothstep(0.0, NOTCH, from_edge);
     let gap_width = 0.0035 + 0.006 * notch;
     let gap = TOOTH_EDGES.iter().map(|&e| (-((x - e) / gap_width).powi(2)).exp()).fold(0.0, f32::max);
@@ -1695,22 +1707,28 @@ fn scalp_paint(identity: &Identity, hairline: Hairline, rest: Vec3, pixel: f32) 
     let hair = hair_pigment(identity, identity.hair_grey) * (0.63 + 0.35 * seen_over(value_noise(q), spanned));
     let streaks = 0.35 + 1.3 * seen_over(value_noise(q * 0.7 + Vec3::splat(7.0)), 0.7 * spanned);
     let curled = matches!(identity.hair_texture, HairTexture::Curly | HairTexture::Coiled);
-    let Some(x) = parting.filter(|_| !curled) else { return ScalpPaint { hair, streaks, parting: 0.0 } };
+    let parting = parting.filter(|_| !curled).map_or(0.0, |x| parting_shown(x, hairline, rest, pixel));
+    ScalpPaint { hair, streaks, parting }
+}
+
+/// How much of the scalp's own skin shows at `rest` in a parting along `x`: a thin line
+/// over the top of the head. A parting is not ruled: it wanders a little from side to side,
+/// and hairs from either side cross it here and there (drawn straight and even, it read as a
+/// seam).
+fn parting_shown(x: f32, hairline: Hairline, rest: Vec3, pixel: f32) -> f32 {
     let half = super::hair::PARTING_HALF_WIDTH;
-    // A parting is not ruled: it wanders a little from side to side, and hairs from either
-    // side cross it here and there (drawn straight and even, it read as a seam).
     if (rest.x - x).abs() >= half + PARTING_WANDER || rest.z <= 0.2 {
-        return ScalpPaint { hair, streaks, parting: 0.0 };
+        return 0.0;
     }
     let along = Vec3::new(0.0, rest.y, rest.z);
     let wander = PARTING_WANDER * (2.0 * value_noise(along * 15.0) - 1.0);
     let line = (1.0 - smoothstep(0.5 * half, half, (rest.x - x - wander).abs())) * smoothstep(0.2, 0.6, rest.z);
     if line == 0.0 {
-        return ScalpPaint { hair, streaks, parting: 0.0 };
+        return 0.0;
     }
     let crossed = 1.0 - PARTING_CROSSED * smoothstep(0.3, 0.7, seen_over(value_noise(along * 50.0 + Vec3::X * 7.0), 50.0 * pixel));
     // The parting runs through the hair, not beyond the roots into the painted fringe.
-    ScalpPaint { hair, streaks, parting: 0.75 * line * crossed * hairline.mask(rest, 0.5) }
+    0.75 * line * crossed * hairline.mask(rest, 0.5)
 }
 
 impl ScalpPaint {
@@ -2372,8 +2390,8 @@ mod tests {
     /// green); the lower teeth mirror it, the gum below.
     #[test]
     fn teeth_have_a_translucent_edge_notches_and_gums() {
-        for (upper, edge, toward_gum) in [(true, UPPER_INCISAL_EDGE, 1.0), (false, LOWER_INCISAL_EDGE, -1.0)] {
-            let at = |x: f32, from_edge: f32| teeth_albedo(Vec3::new(x, edge_height(&edge, x) + toward_gum * from_edge, 1.45), upper);
+        for (upper, row) in [(true, &UPPER_TEETH), (false, &LOWER_TEETH)] {
+            let at = |x: f32, from_edge: f32| teeth_albedo(Vec3::new(x, edge_height(&row.edge, x) + row.toward_gum * from_edge, 1.45), row);
             let blueness = |c: Vec3| c.z / c.x;
             let (edge_enamel, crown) = (at(0.04, 0.002), at(0.04, 0.05));
             assert!(blueness(edge_enamel) >= 1.1 * blueness(crown), "upper {upper}: edge {edge_enamel}, crown {crown}");
