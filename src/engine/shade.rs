@@ -44,14 +44,58 @@ struct Regions {
     lips: Vec<f32>,
     inside_mouth: Vec<f32>,
     ears: Vec<f32>,
+    /// The vertices of the lips' red on the midline, whose movement forward tells how far the
+    /// lips stand out in front of the teeth now ([`lips_forward`]).
+    lips_midline: Vec<u32>,
 }
 
 fn regions(model: &FaceModel) -> &'static Regions {
     static REGIONS: OnceLock<Regions> = OnceLock::new();
     REGIONS.get_or_init(|| {
         let load = |name: &str| model.region(name).expect("the embedded face model has its regions");
-        Regions { lips: load("lips"), inside_mouth: load("inside_mouth"), ears: load("ears") }
+        let lips = load("lips");
+        let lips_midline = (0..lips.len() as u32).filter(|&i| lips[i as usize] > 0.5 && model.rest[i as usize].x.abs() < LIPS_MIDLINE).collect();
+        Regions { lips, inside_mouth: load("inside_mouth"), ears: load("ears"), lips_midline }
     })
+}
+
+/// The share of the light that reaches a point of the mouth's inside at rest depth `z` with
+/// the lips `lips_forward` ([`lips_forward`]) in front of their rest: less the deeper it lies
+/// behind the lips' opening as it stands now, and all of it a centimetre out in front of it
+/// (the tongue put out over the lower lip, AU19, is lit as the lips are).
+fn light_inside_mouth(z: f32, lips_forward: f32) -> f32 {
+    let behind = MOUTH_OPENING_Z + lips_forward - z;
+    if behind >= 0.0 {
+        MOUTH_OPENING_LIGHT * (-behind * 6.0).exp()
+    } else {
+        MOUTH_OPENING_LIGHT + (1.0 - MOUTH_OPENING_LIGHT) * smoothstep(0.0, 0.1, -behind)
+    }
+}
+
+/// The share of the light that reaches the mouth's opening between the lips.
+const MOUTH_OPENING_LIGHT: f32 = 0.7;
+
+/// How far vertex `v` of `posed` has moved from the person's neutral, in the head's own frame
+/// (a turn of the head undone).
+fn moved_in_head(posed: &Posed, v: usize) -> Vec3 {
+    let now = posed.positions[v];
+    posed.head_turn.map_or(now, |turn| turn.undo(now)) - posed.neutral[v]
+}
+
+/// How near the midline (decimetres, rest x) a vertex of the lips' red counts as on it.
+const LIPS_MIDLINE: f32 = 0.02;
+
+/// How far (decimetres) the lips' red on the midline has moved forward of where it rests, on
+/// average, in the head's own frame (pushed out by AU18's pucker or AU22's funnel; 0 where the
+/// lips draw back, as in a smile): the teeth and the tongue behind them lie that much deeper
+/// inside the mouth, where less light reaches ([`FaceShader::inside_mouth`]).
+fn lips_forward(model: &FaceModel, posed: &Posed) -> f32 {
+    let midline = &regions(model).lips_midline;
+    if midline.is_empty() {
+        return 0.0;
+    }
+    let moved: f32 = midline.iter().map(|&i| moved_in_head(posed, i as usize).z).sum();
+    (moved / midline.len() as f32).max(0.0)
 }
 
 /// Depth of the head as seen from the key light, for cast shadows (the nose on the cheek, the
@@ -652,6 +696,8 @@ pub struct FaceShader<'a> {
     pixel_angle: f32,
     /// The colour of the light left in a cast shadow on the skin ([`skin_bounce`]).
     skin_bounce: Vec3,
+    /// How far the lips stand forward of their rest now ([`lips_forward`]).
+    lips_forward: f32,
 }
 
 /// The colour of the light that reaches a cast shadow on the skin of colour `skin` (linear):
@@ -676,7 +722,7 @@ impl<'a> FaceShader<'a> {
         let (body, body_key_light, hair, hair_key_light) = (None, KeyLight::default(), None, KeyLight::default());
         let backdrop_kind = look.backdrop;
         let hairline = Hairline::of(identity);
-        FaceShader { maps, key_light, body, body_key_light, hair, hair_seen: &[], hair_key_light, shadow: None, relief, aged_relief, model, posed, identity, hairline, lighting, backdrop_kind, backdrop, eye, pixel_angle, skin_bounce: skin_bounce(identity.skin) }
+        FaceShader { maps, key_light, body, body_key_light, hair, hair_seen: &[], hair_key_light, shadow: None, relief, aged_relief, model, posed, identity, hairline, lighting, backdrop_kind, backdrop, eye, pixel_angle, skin_bounce: skin_bounce(identity.skin), lips_forward: lips_forward(model, posed) }
     }
 
     /// Casts the key light's shadows from `shadow`, looked up once per vertex (offset along the
@@ -1127,25 +1173,22 @@ impl<'a> FaceShader<'a> {
         let speckle = seen_over(papilla, cells);
         let facing = f.normal.dot(f.view_dir).abs();
         let albedo = TONGUE * (0.85 + 0.3 * speckle) * (1.0 - 0.15 * groove) * Vec3::new(1.0, 0.7 + 0.3 * facing, 0.7 + 0.3 * facing);
-        self.lit(f, normal, albedo, 0.3, 0.45, 60.0) * Self::inside_mouth(self.tongue_now(f, rest))
+        self.lit(f, normal, albedo, 0.3, 0.45, 60.0) * self.inside_mouth(self.tongue_now(f, rest))
     }
 
     /// Where tongue fragment `f` (at rest `rest`) is now in the head's own frame: its rest
     /// position moved as the pose moved its corners.
     fn tongue_now(&self, f: &Fragment, rest: Vec3) -> Vec3 {
-        let posed = self.posed;
-        let moved = f.vertex.map(|v| {
-            let now = posed.positions[v as usize];
-            posed.head_turn.map_or(now, |turn| turn.undo(now)) - posed.neutral[v as usize]
-        });
+        let moved = f.vertex.map(|v| moved_in_head(self.posed, v as usize));
         let w = f.barycentric;
         rest + moved[0] * w.x + moved[1] * w.y + moved[2] * w.z
     }
 
-    /// Inside the mouth little light arrives: everything dimmed, and more with depth.
-    fn inside_mouth(rest: Vec3) -> f32 {
-        let depth = (1.50 - rest.z).max(0.0);
-        0.7 * (-depth * 6.0).exp()
+    /// Inside the mouth little light arrives: everything dimmed, and more with depth behind
+    /// the lips as they stand now (`rest`: the point in rest space): lips pushed forward in a
+    /// pucker leave the teeth deeper in the mouth's shadow.
+    fn inside_mouth(&self, rest: Vec3) -> f32 {
+        light_inside_mouth(rest.z, self.lips_forward)
     }
 
     /// Teeth: enamel is translucent, so a tooth in the lip's shadow still glows with the light
@@ -1158,10 +1201,11 @@ impl<'a> FaceShader<'a> {
         let reach = 0.45 + 0.55 * self.key_reach(f);
         let surface = Surface { wrap: 0.2, specular: 0.5, shininess: 40.0, open: 1.0, tissue: true, bounce: Vec3::ONE };
         // The arch is a few flat facets: its normals turn half toward the viewer, so that a
-        // tooth reads as one rounded surface, not as a lit and a dark facet.
-        let normal = (f.normal + f.view_dir).normalize_or(f.normal);
+        // tooth reads as one rounded surface, not as a lit and a dark facet. Each tooth's face
+        // is convex across the arch: its normal turns toward the next tooth on either side.
+        let normal = tooth_normal((f.normal + f.view_dir).normalize_or(f.normal), rest.x);
         let albedo = teeth_albedo(rest, row);
-        self.lit_reached(f, normal, albedo, surface, reach) * Self::inside_mouth(rest) * ENAMEL_GLOW
+        self.lit_reached(f, normal, albedo, surface, reach) * self.inside_mouth(rest) * ENAMEL_GLOW
     }
 
     /// Lashes: the lash cards are drawn as clumps of lashes, dense at the lid margin and
@@ -1343,6 +1387,10 @@ const LOWER_TEETH: TeethRow = TeethRow {
     toward_gum: -1.0,
 };
 
+/// Where the mouth's opening lies between the lips at rest (rest z, decimetres): the inside of
+/// the mouth is dimmed with depth behind it.
+const MOUTH_OPENING_Z: f32 = 1.50;
+
 /// How much less than the rest of the mouth's inside the teeth are dimmed.
 const ENAMEL_GLOW: f32 = 1.25;
 
@@ -1372,8 +1420,7 @@ fn edge_height(edge: &[Vec2], x: f32) -> f32 {
 /// arching over each tooth.
 fn teeth_albedo(rest: Vec3, row: &TeethRow) -> Vec3 {
     let x = rest.x.abs();
-    let tooth = TOOTH_EDGES.windows(2).find(|w| x < w[1]).unwrap_or(&TOOTH_EDGES[4..]);
-    let across = ((x - tooth[0]) / (tooth[1] - tooth[0])).clamp(0.0, 1.0);
+    let across = tooth_across(rest.x);
     let rounded = 1.0 - 0.22 * (2.0 * across - 1.0).powi(4);
     let from_edge = (row.toward_gum * (rest.y - edge_height(&row.edge, x))).max(0.0);
     let notch = 1.0 - smoothstep(0.0, NOTCH, from_edge);
@@ -1385,6 +1432,26 @@ fn teeth_albedo(rest: Vec3, row: &TeethRow) -> Vec3 {
     let gum_line = GUM_LINE[0] + (GUM_LINE[1] - GUM_LINE[0]) * (1.0 - (2.0 * across - 1.0).powi(2));
     let gum = smoothstep(gum_line - 0.004, gum_line + 0.004, from_edge);
     enamel.lerp(GUM, gum) * (1.0 - (0.4 + 0.4 * notch) * gap * (1.0 - gum))
+}
+
+/// Where across its tooth a point of the teeth at rest `x` lies: 0 at the edge toward the
+/// midline, 1 at the edge away from it ([`TOOTH_EDGES`]).
+fn tooth_across(x: f32) -> f32 {
+    let x = x.abs();
+    let tooth = TOOTH_EDGES.windows(2).find(|w| x < w[1]).unwrap_or(&TOOTH_EDGES[4..]);
+    ((x - tooth[0]) / (tooth[1] - tooth[0])).clamp(0.0, 1.0)
+}
+
+/// How far a tooth's normal turns along the arch at its sides (the tangent of the angle): a
+/// tooth's face is convex, lit more on the side toward the light.
+const TOOTH_CONVEXITY: f32 = 1.0;
+
+/// The normal of a tooth's convex face at rest `x` on the arch whose flat normal is `facing`:
+/// turned along the arch toward the midline on the tooth's inner half and away from it on its
+/// outer half, by up to 45 degrees at its sides.
+fn tooth_normal(facing: Vec3, x: f32) -> Vec3 {
+    let outward = Vec3::Y.cross(facing).normalize_or_zero() * x.signum();
+    (facing + outward * (TOOTH_CONVEXITY * (2.0 * tooth_across(x) - 1.0))).normalize_or(facing)
 }
 
 /// `x^e` for a specular lobe: a whole exponent up to 64 (the skin's 18, the mouth's 40) by
@@ -2402,6 +2469,64 @@ mod tests {
                 assert!(gum.x >= 2.0 * gum.y, "upper {upper}: at x {x} 12 mm from the edge {gum}");
             }
             assert!(at(0.04, 0.08).y >= 0.7 * crown.y, "upper {upper}: enamel up to the gum");
+        }
+    }
+
+    /// AU18's pucker and AU22's funnel push the lips forward (at least 5 mm on the midline, on
+    /// each of the eight), and the teeth behind them, as bright in a pucker as at the front of
+    /// a smile before, take at most 0.6 of the light they take at rest; a smile (6+12+25) leaves
+    /// the lips where they are (within 1 mm) and the teeth as lit (within 5 %). The tongue's
+    /// tip, put out over the lower lip at 19E, takes all the light (it took 0.7 before), and
+    /// at rest at most half.
+    #[test]
+    fn the_light_inside_the_mouth_follows_the_lips_and_the_tongue() {
+        let model = FaceModel::embedded();
+        let teeth = model.part(Part::TeethUpper).vertices.clone();
+        let front = teeth.map(|i| model.rest[i as usize].z).fold(f32::MIN, f32::max);
+        let tongue = model.part(Part::Tongue).vertices.clone();
+        let at_rest = light_inside_mouth(front, 0.0);
+        crate::engine::identity::assert_on_the_eight(|identity| {
+            let forward = |expression: &str| {
+                let expression = crate::facs::Catalog::built_in().parse(expression).unwrap();
+                lips_forward(model, &crate::engine::pose_expression(&expression, identity).unwrap())
+            };
+            let mut failures = Vec::new();
+            for pushed in ["18E", "22E"] {
+                let (ahead, light) = (forward(pushed), light_inside_mouth(front, forward(pushed)));
+                if ahead < 0.05 || light > 0.6 * at_rest {
+                    failures.push(format!("{pushed}: lips {ahead:.3} dm forward, teeth lit {light:.3} against {at_rest:.3} at rest"));
+                }
+            }
+            let smile = forward("6+12+25");
+            if smile > 0.01 || light_inside_mouth(front, smile) < 0.95 * at_rest {
+                failures.push(format!("6+12+25: lips {smile:.3} dm forward"));
+            }
+            for (expression, least, most) in [("19E", 1.0, 1.0), ("0", 0.0, 0.5)] {
+                let posed = crate::engine::pose_expression(&crate::facs::Catalog::built_in().parse(expression).unwrap(), identity).unwrap();
+                let tip = tongue.clone().map(|v| model.rest[v as usize].z + moved_in_head(&posed, v as usize).z).fold(f32::MIN, f32::max);
+                let light = light_inside_mouth(tip, lips_forward(model, &posed));
+                if !(least..=most).contains(&light) {
+                    failures.push(format!("{expression}: the tongue's tip at rest z {tip:.3} lit {light:.3}"));
+                }
+            }
+            (!failures.is_empty()).then(|| failures.join("; "))
+        });
+    }
+
+    /// A tooth's face is convex across the arch: at the middle of the left central incisor the
+    /// normal faces as the arch does, toward its inner side it turns to the midline and toward
+    /// its outer side away from it, by 40 to 45 degrees at the sides; the right side mirrors it.
+    #[test]
+    fn a_tooths_face_turns_toward_its_neighbours() {
+        let middle = tooth_normal(Vec3::Z, 0.04);
+        assert!((middle - Vec3::Z).length() < 1e-6, "{middle}");
+        for x in [0.001, 0.079, -0.001, -0.079] {
+            let n = tooth_normal(Vec3::Z, x);
+            let outward = n.x * x.signum();
+            let toward_outer_side = x.abs() > 0.04;
+            assert_eq!(outward > 0.0, toward_outer_side, "at x {x}: {n}");
+            let degrees = n.dot(Vec3::Z).acos().to_degrees();
+            assert!((40.0..=45.0).contains(&degrees), "at x {x}: {degrees} degrees");
         }
     }
 
