@@ -72,6 +72,10 @@ fn light_inside_mouth(z: f32, lips_forward: f32) -> f32 {
     }
 }
 
+/// Where the mouth's opening lies between the lips at rest (rest z, decimetres): the inside of
+/// the mouth is dimmed with depth behind it.
+const MOUTH_OPENING_Z: f32 = 1.50;
+
 /// The share of the light that reaches the mouth's opening between the lips.
 const MOUTH_OPENING_LIGHT: f32 = 0.7;
 
@@ -1386,10 +1390,6 @@ const LOWER_TEETH: TeethRow = TeethRow {
     ],
     toward_gum: -1.0,
 };
-
-/// Where the mouth's opening lies between the lips at rest (rest z, decimetres): the inside of
-/// the mouth is dimmed with depth behind it.
-const MOUTH_OPENING_Z: f32 = 1.50;
 
 /// How much less than the rest of the mouth's inside the teeth are dimmed.
 const ENAMEL_GLOW: f32 = 1.25;
