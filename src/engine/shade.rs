@@ -1684,7 +1684,7 @@ fn lip_lines(rest: Vec3, lips: f32, pixel: f32, normal: &mut Vec3) -> f32 {
 /// fanned out from the middle of the mouth, wandering.
 fn lip_lines_across(rest: Vec3) -> f32 {
     let wander = LIP_LINES_WANDER * (2.0 * value_noise(Vec3::new(rest.x * 30.0, rest.y * 10.0, 5.0)) - 1.0);
-    rest.x * LIP_LINES_FAN / ((rest.y - LIPS_MEET).abs() + LIP_LINES_FAN) + wander
+    rest.x * LIP_LINES_FAN / ((rest.y - lips_meet()).abs() + LIP_LINES_FAN) + wander
 }
 
 /// Cells of the lip furrows' noise per decimetre: across them (about 1.7 mm apart) and along
@@ -1692,10 +1692,16 @@ fn lip_lines_across(rest: Vec3) -> f32 {
 const LIP_LINES_ACROSS: f32 = 60.0;
 const LIP_LINES_ALONG: f32 = 8.0;
 
-/// Where the lips meet at rest (y, decimetres), and how far beyond it (decimetres) lies the point
-/// the lips' furrows fan out from: a furrow at x leans outward by x / (its distance from the
+/// Where the lips meet at rest (y, decimetres): where the upper lip begins, as its lip roll
+/// declares it (`stimuli/engine/lip_rolls.toml`).
+fn lips_meet() -> f32 {
+    static MEET: OnceLock<f32> = OnceLock::new();
+    *MEET.get_or_init(|| super::pose::LipRoll::named("upper_lip").expect("the built-in lip rolls have the upper lip").between[0])
+}
+
+/// How far beyond the line where the lips meet ([`lips_meet`], decimetres) lies the point the
+/// lips' furrows fan out from: a furrow at x leans outward by x / (its distance from the
 /// meeting line + this).
-const LIPS_MEET: f32 = 6.605;
 const LIP_LINES_FAN: f32 = 0.4;
 
 /// How far (decimetres) the lips' furrows wander from an even spacing, over a few millimetres.
@@ -2486,13 +2492,15 @@ mod tests {
         let tongue = model.part(Part::Tongue).vertices.clone();
         let at_rest = light_inside_mouth(front, 0.0);
         crate::engine::identity::assert_on_the_eight(|identity| {
-            let forward = |expression: &str| {
+            let posed = |expression: &str| {
                 let expression = crate::facs::Catalog::built_in().parse(expression).unwrap();
-                lips_forward(model, &crate::engine::pose_expression(&expression, identity).unwrap())
+                crate::engine::pose_expression(&expression, identity).unwrap()
             };
+            let forward = |expression: &str| lips_forward(model, &posed(expression));
             let mut failures = Vec::new();
             for pushed in ["18E", "22E"] {
-                let (ahead, light) = (forward(pushed), light_inside_mouth(front, forward(pushed)));
+                let ahead = forward(pushed);
+                let light = light_inside_mouth(front, ahead);
                 if ahead < 0.05 || light > 0.6 * at_rest {
                     failures.push(format!("{pushed}: lips {ahead:.3} dm forward, teeth lit {light:.3} against {at_rest:.3} at rest"));
                 }
@@ -2502,7 +2510,7 @@ mod tests {
                 failures.push(format!("6+12+25: lips {smile:.3} dm forward"));
             }
             for (expression, least, most) in [("19E", 1.0, 1.0), ("0", 0.0, 0.5)] {
-                let posed = crate::engine::pose_expression(&crate::facs::Catalog::built_in().parse(expression).unwrap(), identity).unwrap();
+                let posed = posed(expression);
                 let tip = tongue.clone().map(|v| model.rest[v as usize].z + moved_in_head(&posed, v as usize).z).fold(f32::MIN, f32::max);
                 let light = light_inside_mouth(tip, lips_forward(model, &posed));
                 if !(least..=most).contains(&light) {
@@ -2751,7 +2759,7 @@ mod tests {
         for origin in [Vec2::new(0.05, 6.62), Vec2::new(-0.15, 6.7), Vec2::new(0.15, 6.52)] {
             let furrows = |p: Vec2, pixel: f32| lip_lines(Vec3::new(p.x, p.y, 1.5), 1.0, pixel, &mut { Vec3::Z });
             let close = Grain::of(|p| furrows(p, 0.0), origin, 0.002);
-            let lean = origin.x * (origin.y - LIPS_MEET).signum() / ((origin.y - LIPS_MEET).abs() + LIP_LINES_FAN);
+            let lean = origin.x * (origin.y - lips_meet()).signum() / ((origin.y - lips_meet()).abs() + LIP_LINES_FAN);
             let fan = 1.0f32.atan2(lean);
             println!("lip lines at {origin}: run {:.3} rad (the fan {fan:.3}), across/along {:.1}, spread {:.3}", close.runs, close.anisotropy, close.spread);
             assert!(close.off(fan) < 0.15, "the furrows run {:.2} rad, the fan {fan:.2}", close.runs);
