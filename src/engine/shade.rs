@@ -79,6 +79,10 @@ const MOUTH_OPENING_Z: f32 = 1.50;
 /// The share of the light that reaches the mouth's opening between the lips.
 const MOUTH_OPENING_LIGHT: f32 = 0.7;
 
+/// The colour (linear RGB) of the mouth's inner skin at its opening; deeper in it takes its
+/// share of [`light_inside_mouth`].
+const MOUTH_INTERIOR: Vec3 = Vec3::new(0.16, 0.035, 0.035);
+
 /// How far vertex `v` of `posed` has moved from the person's neutral, in the head's own frame
 /// (a turn of the head undone).
 fn moved_in_head(posed: &Posed, v: usize) -> Vec3 {
@@ -919,10 +923,10 @@ impl<'a> FaceShader<'a> {
             // as hair, it was a pale haze over the forehead).
             colour = colour.lerp(as_hair, smoothstep(0.85, 1.0, hair) * (1.0 - paint.parting));
         }
-        // The mouth interior is dark, more so the deeper it lies behind the lips.
+        // The mouth interior is dark, more so the deeper it lies behind the lips' opening (as
+        // the teeth and the tongue are: a pucker puts it deeper).
         if mouth > 0.0 {
-            let depth = (1.52 - rest.z).max(0.0);
-            let interior = Vec3::new(0.16, 0.035, 0.035) * (-depth * 7.0).exp();
+            let interior = MOUTH_INTERIOR * (self.inside_mouth(rest) / MOUTH_OPENING_LIGHT);
             colour = colour.lerp(interior, (mouth * 1.5).min(1.0));
         }
         colour
