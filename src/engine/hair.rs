@@ -322,8 +322,9 @@ const FACE_CLEARANCE: f32 = 0.03;
 const TEMPLE_LOW: f32 = 7.25;
 
 impl HeadMap {
-    /// `ears`: each skin vertex's weight in the ears' region; `over_ears`: whether the hair
-    /// lies over them (else they are left out of the surface, and hair is cut around them).
+    /// `skin`: the skin's vertices, `triangles` over them; `ears`: each skin vertex's weight in
+    /// the ears' region; `over_ears`: whether the hair lies over them (else they, the triangles
+    /// with a corner in them, are left out of the surface, and hair is cut around them).
     fn new(skin: &[Vec3], triangles: &[[u32; 3]], ears: &[f32], over_ears: bool) -> HeadMap {
         let with_ears = radius_map(surface_samples(skin, triangles.iter()));
         let (radius, ears_out) = if over_ears {
