@@ -148,14 +148,20 @@ struct StyleShape {
     hug: f32,
     /// Strands are gathered to this point (bun, ponytail).
     gather: Option<Vec3>,
+    /// The share of their length kept by strands rooted at the hairline's lowest, behind the
+    /// ears and at the nape: hair standing out from the head (an afro) is cut shorter from the
+    /// temples down, as a barber tapers it (1: not cut).
+    nape_kept: f32,
 }
 
 impl StyleShape {
     /// Whether the hair at the sides hangs down over the ears (longer than the 3 cm from the
-    /// side of the scalp to below the ear's top, and not gathered back); shorter hair is cut
-    /// around them.
+    /// side of the scalp to below the ear's top, heavy enough to hang and not gathered back);
+    /// shorter hair, and hair that stands out from the head (an afro), is cut around them.
+    /// (With the ears in the surface it grows over, an afro's coils rooted at and under them
+    /// were pushed out over the ear's rim and stood out sideways as single springs.)
     fn hangs_over_ears(&self) -> bool {
-        self.gather.is_none() && self.length_back > 0.3
+        self.gather.is_none() && self.length_back > 0.3 && self.gravity >= 1.0
     }
 
     /// Whether the hair is drawn onto the head at every height, down to the nape: short hair
@@ -275,12 +281,13 @@ fn style_shape_uncurled(style: HairStyle, texture: HairTexture) -> StyleShape {
         gravity,
         hug: if coiled { 0.0 } else { 0.6 },
         gather: None,
+        nape_kept: 1.0,
     };
     match style {
-        HairStyle::Cropped => base(0.05, 0.04, 600.0, 2, 0.015, 0.05, 0.0),
+        HairStyle::Cropped => base(0.05, 0.04, 1100.0, 2, 0.008, 0.05, 0.0),
         HairStyle::Short if coiled => base(0.12, 0.1, 1200.0, 8, 0.014, 0.6, 0.0),
         HairStyle::Short => base(0.32, 0.16, 450.0, 7, 0.02, 0.06, 1.0),
-        HairStyle::Medium if coiled => base(0.38, 0.34, 1000.0, 14, 0.016, 0.7, 0.3),
+        HairStyle::Medium if coiled => StyleShape { nape_kept: 0.2, ..base(0.38, 0.34, 1000.0, 14, 0.016, 0.7, 0.3) },
         HairStyle::Medium => base(1.0, 0.9, 380.0, 12, 0.025, 0.05, 2.5),
         HairStyle::Shoulder => base(1.75, 1.6, 420.0, 16, 0.025, 0.05, 3.0),
         HairStyle::Long => base(2.7, 2.5, 420.0, 20, 0.025, 0.05, 3.0),
@@ -1537,6 +1544,12 @@ fn comb_direction(root: &Root, parting: Parting, gather: Option<Vec3>) -> Vec3 {
     along.normalize_or(Vec3::NEG_Y)
 }
 
+/// Where (height on the base mesh, decimetres) hair tapered toward the nape
+/// ([`StyleShape::nape_kept`]) starts to be cut shorter (the temples), and where it is cut the
+/// most (the hairline's lowest, behind the ears).
+const TAPER_FROM: f32 = 7.75;
+const TAPER_TO: f32 = 6.85;
+
 /// A strand's points from its root, or `None` for a root from which hair cannot grow (it lies
 /// under an overhang, the ear, and its first step would jump out over it, or it lies within the
 /// ears that hair is cut around).
@@ -1545,7 +1558,8 @@ fn grow(root: &Root, n: u32, identity: &Identity, shape: &StyleShape, head: &Hea
         return None;
     }
     let top = smooth(7.9, 8.4, root.rest.y);
-    let length = (shape.length_back + (shape.length_top - shape.length_back) * top + cut_line_reach(root, shape)) * (0.8 + 0.35 * hash01(n, 20, 0));
+    let tapered = 1.0 - (1.0 - shape.nape_kept) * smooth(TAPER_FROM, TAPER_TO, root.rest.y);
+    let length = (shape.length_back + (shape.length_top - shape.length_back) * top + cut_line_reach(root, shape)) * (0.8 + 0.35 * hash01(n, 20, 0)) * tapered;
     let step = length / shape.segments as f32;
     let texture = identity.hair_texture;
     let comb = comb_direction(root, identity.parting, shape.gather);
@@ -1866,6 +1880,53 @@ mod tests {
             }
             if over > beside + 0.02 {
                 failures.push(format!("{}: hair over the ears {over:.3} dm off the head, beside them {beside:.3}", identity.id));
+            }
+        }
+        assert!(failures.is_empty(), "{}", failures.join("\n"));
+    }
+
+    /// An afro (bf1's medium coils) is tapered from the temples down and cut around the ears:
+    /// behind the ears and below their tops, nine in ten card rows lie within three quarters of
+    /// the crown's thickness of the head (0.21 dm against 0.34 on the crown; 0.31 when it was
+    /// cut to one length), and no row below the ears' tops reaches out more than 1.1 dm from the
+    /// midline (1.07 now). Grown over the ears, one length all round, single coils rooted at and
+    /// under the ears stood out sideways beyond the hair's outline as springs (out to 1.17 dm).
+    #[test]
+    fn an_afro_is_tapered_toward_the_ears_and_nape() {
+        let model = FaceModel::embedded();
+        let identity = IdentityTable::built_in().get("bf1").unwrap();
+        let (hair, skin) = hair_and_skin_at_rest(model, identity);
+        let ears = model.region("ears").unwrap();
+        let ear: Vec<Vec3> = skin.iter().enumerate().filter(|&(v, _)| in_ear(&ears, v)).map(|(_, &p)| p).collect();
+        let top = ear.iter().map(|p| p.y).fold(f32::MIN, f32::max);
+        let rows: Vec<Vec3> = hair.rows.iter().map(|row| row.point).collect();
+        let thickness = |keep: &dyn Fn(&Vec3) -> bool| decile(rows.iter().filter(|p| keep(p)).map(|&p| hair.head.height(p)).collect(), 9).unwrap();
+        let crown = thickness(&|p| p.y > 8.2);
+        let behind = thickness(&|p| p.x.abs() > 0.3 && p.y < top && p.z < -0.1);
+        assert!(behind <= 0.75 * crown, "behind the ears nine in ten rows within {behind:.3} dm of the head, on the crown {crown:.3}");
+        let widest = rows.iter().filter(|p| p.y < top).map(|p| p.x.abs()).fold(0.0f32, f32::max);
+        assert!(widest <= 1.1, "hair below the ears' tops reaches out to {widest:.3} dm from the midline");
+    }
+
+    /// Cropped hair is drawn as narrow cards, not flakes: at the root, a card is at most 0.4 of
+    /// its strand's length wide (the median over the person's cards: 0.36 on eam2 and sam2,
+    /// 0.15 on bm1's coils, 0.19 on mem2's waves). Cards about two thirds as wide as they
+    /// were long (eam2 and sam2, twice as many as wide as now) read, on grey and white
+    /// cropped hair, as a coat of feathers or paper scales (eam2, mem2 at 970×960).
+    #[test]
+    fn cropped_hair_is_drawn_as_narrow_cards_not_flakes() {
+        let model = FaceModel::embedded();
+        let mut failures = Vec::new();
+        for identity in IdentityTable::built_in().iter().filter(|i| i.hair_style == HairStyle::Cropped) {
+            let (hair, _) = hair_and_skin_at_rest(model, identity);
+            let cards = hair.rows.chunks_exact(hair.rows_per_card());
+            let shapes = cards.map(|card| {
+                let length: f32 = card.windows(2).map(|piece| (piece[1].point - piece[0].point).length()).sum();
+                2.0 * card[0].half / length.max(1e-6)
+            });
+            let median = decile(shapes.collect(), 5).unwrap();
+            if median > 0.4 {
+                failures.push(format!("{}: cards {median:.2} of their length wide at the root", identity.id));
             }
         }
         assert!(failures.is_empty(), "{}", failures.join("\n"));
