@@ -183,8 +183,11 @@ fn curl(texture: HairTexture) -> (f32, f32) {
 }
 
 /// Points per turn of a curl that a strand needs to be drawn as a curve, not a zigzag; a
-/// strand has at most twice its style's segments to get them. Waves get more: a wave of five
-/// straight pieces read as crumpled foil.
+/// strand of curls or coils has at most three times its style's segments to get them (waves and
+/// gathered hair twice), which gives the styles down to medium all of them (with twice, hlm1's
+/// hanging curls had 3.3 points a turn and read as zigzags); shoulder-length and long curls
+/// get 3.8 and 3.1, and longer coils fewer still. Waves
+/// get more: a wave of five straight pieces read as crumpled foil.
 fn points_per_turn(texture: HairTexture) -> f32 {
     if texture == HairTexture::Wavy { 8.0 } else { 5.0 }
 }
@@ -266,7 +269,11 @@ fn style_shape(style: HairStyle, texture: HairTexture) -> StyleShape {
         HairTexture::Wavy => (0.75, 1.3),
         HairTexture::Straight => (1.0, 1.0),
     };
-    StyleShape { segments: wanted.clamp(shape.segments, 2 * shape.segments), width: shape.width * narrower, density: shape.density * denser, ..shape }
+    // Curls and coils that hang or stand free may take three times the style's segments; waves
+    // have enough points with twice, and gathered hair is drawn smooth to its bun or tail.
+    let curled = matches!(texture, HairTexture::Curly | HairTexture::Coiled);
+    let most = if curled && shape.gather.is_none() { 3 } else { 2 } * shape.segments;
+    StyleShape { segments: wanted.clamp(shape.segments, most), width: shape.width * narrower, density: shape.density * denser, ..shape }
 }
 
 fn style_shape_uncurled(style: HairStyle, texture: HairTexture) -> StyleShape {
@@ -1887,10 +1894,11 @@ mod tests {
 
     /// An afro (bf1's medium coils) is tapered from the temples down and cut around the ears:
     /// behind the ears and below their tops, nine in ten card rows lie within three quarters of
-    /// the crown's thickness of the head (0.21 dm against 0.34 on the crown; 0.31 when it was
-    /// cut to one length), and no row below the ears' tops reaches out more than 1.1 dm from the
-    /// midline (1.07 now). Grown over the ears, one length all round, single coils rooted at and
-    /// under the ears stood out sideways beyond the hair's outline as springs (out to 1.17 dm).
+    /// the crown's thickness of the head (0.19 dm against 0.33 on the crown; about 0.31 when it
+    /// was cut to one length), and no row below the ears' tops reaches out more than 1.1 dm from
+    /// the midline (1.02 now). Grown over the ears, one length all round, single coils rooted at
+    /// and under the ears stood out sideways beyond the hair's outline as springs (out to about
+    /// 1.17 dm).
     #[test]
     fn an_afro_is_tapered_toward_the_ears_and_nape() {
         let model = FaceModel::embedded();
@@ -1911,7 +1919,7 @@ mod tests {
     /// Cropped hair is drawn as narrow cards, not flakes: at the root, a card is at most 0.4 of
     /// its strand's length wide (the median over the person's cards: 0.36 on eam2 and sam2,
     /// 0.15 on bm1's coils, 0.19 on mem2's waves). Cards about two thirds as wide as they
-    /// were long (eam2 and sam2, twice as many as wide as now) read, on grey and white
+    /// were long (eam2 and sam2, with cards 1.9 times as wide as now) read, on grey and white
     /// cropped hair, as a coat of feathers or paper scales (eam2, mem2 at 970×960).
     #[test]
     fn cropped_hair_is_drawn_as_narrow_cards_not_flakes() {
@@ -2170,6 +2178,23 @@ mod tests {
         }
         let coiled = style_shape(HairStyle::Medium, HairTexture::Coiled);
         assert!(coiled.width < 0.01 && coiled.density > 1000.0);
+    }
+
+    /// Curls and coils are drawn round, not as zigzags: in the styles that end above the
+    /// shoulders and hang free (cropped, short and medium), the longest strands get at least 4.5
+    /// points per turn of their curl (5 wanted; 5.0–5.6 now). With at most twice the style's
+    /// segments, medium curls got 3.3 and medium coils 3.8.
+    #[test]
+    fn curls_get_enough_points_per_turn_to_read_round() {
+        for style in [HairStyle::Cropped, HairStyle::Short, HairStyle::Medium] {
+            for texture in [HairTexture::Curly, HairTexture::Coiled] {
+                let shape = style_shape(style, texture);
+                let (_, period) = curl(texture);
+                let turns = shape.length_top.max(shape.length_back) * 1.15 / period;
+                let per_turn = shape.segments as f32 / turns;
+                assert!(per_turn >= 4.5, "{style:?} {texture:?}: {per_turn:.2} points per turn");
+            }
+        }
     }
 
     /// Strands rooted close together share most of their tone (they clump into locks);
