@@ -269,8 +269,10 @@ fn style_shape(style: HairStyle, texture: HairTexture) -> StyleShape {
         HairTexture::Wavy => (0.75, 1.3),
         HairTexture::Straight => (1.0, 1.0),
     };
-    // Curls and coils that hang or stand free may take three times the style's segments; waves
-    // have enough points with twice, and gathered hair is drawn smooth to its bun or tail.
+    // Curls and coils that hang or stand free may take three times the style's segments. Waves
+    // keep twice (long waves get 5.8 points a wave of the 8 wanted; given three times, long
+    // wavy hair took other paths and left the back of the neck bare), and gathered hair is
+    // drawn smooth to its bun or tail.
     let curled = matches!(texture, HairTexture::Curly | HairTexture::Coiled);
     let most = if curled && shape.gather.is_none() { 3 } else { 2 } * shape.segments;
     StyleShape { segments: wanted.clamp(shape.segments, most), width: shape.width * narrower, density: shape.density * denser, ..shape }
