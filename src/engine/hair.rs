@@ -170,6 +170,11 @@ impl StyleShape {
     fn lies_down_to_nape(&self) -> bool {
         self.gather.is_none() && !self.hangs_over_ears()
     }
+    /// The longest a strand grows (decimetres): the longer of the style's lengths, at the most
+    /// of [`grow`]'s spread of lengths.
+    fn longest(&self) -> f32 {
+        self.length_top.max(self.length_back) * 1.15
+    }
 }
 
 /// A texture's curl: the radius and the period (length of strand per turn), decimetres.
@@ -258,7 +263,7 @@ fn curl_offset(texture: HairTexture, direction: Vec3, p: Vec3, angle: f32) -> Ve
 
 fn style_shape(style: HairStyle, texture: HairTexture) -> StyleShape {
     let shape = style_shape_uncurled(style, texture);
-    let longest = shape.length_top.max(shape.length_back) * 1.15;
+    let longest = shape.longest();
     let (radius, period) = curl(texture);
     let wanted = if radius > 0.0 { (longest / period * points_per_turn(texture)).ceil() as usize } else { 0 };
     // Curls and coils are drawn as more, narrower strands: a card as wide as the curl turning
@@ -1654,6 +1659,12 @@ mod tests {
         HairModel::new(FaceModel::embedded(), &identity, &posed.neutral)
     }
 
+    /// The points of `skin` (the skin's vertices) that lie in the ears.
+    fn ear_points(model: &FaceModel, skin: &[Vec3]) -> Vec<Vec3> {
+        let ears = model.region("ears").unwrap();
+        skin.iter().enumerate().filter(|&(v, _)| in_ear(&ears, v)).map(|(_, &p)| p).collect()
+    }
+
     /// The person's hair at rest, and their skin at rest in the head map's space.
     fn hair_and_skin_at_rest(model: &FaceModel, identity: &Identity) -> (Arc<HairModel>, Vec<Vec3>) {
         let posed = crate::engine::pose_expression(&crate::facs::Expression::neutral(), identity).unwrap();
@@ -1866,7 +1877,6 @@ mod tests {
     #[test]
     fn short_hair_is_cut_around_the_ears_not_hooked_over_them() {
         let model = FaceModel::embedded();
-        let ears = model.region("ears").unwrap();
         let mut failures = Vec::new();
         for identity in IdentityTable::built_in().iter() {
             if style_shape(identity.hair_style, identity.hair_texture).hangs_over_ears() {
@@ -1874,7 +1884,7 @@ mod tests {
             }
             let (hair, aligned) = hair_and_skin_at_rest(model, identity);
             let head = &hair.head;
-            let ear: Vec<Vec3> = aligned.iter().enumerate().filter(|&(v, _)| in_ear(&ears, v)).map(|(_, &p)| p).collect();
+            let ear = ear_points(model, &aligned);
             let top = ear.iter().map(|p| p.y).fold(f32::MIN, f32::max);
             let (front, back) = ear.iter().fold((f32::MIN, f32::MAX), |(f, b), p| (f.max(p.z), b.min(p.z)));
             let highest = |z_within: &dyn Fn(f32) -> bool| {
@@ -1906,8 +1916,7 @@ mod tests {
         let model = FaceModel::embedded();
         let identity = IdentityTable::built_in().get("bf1").unwrap();
         let (hair, skin) = hair_and_skin_at_rest(model, identity);
-        let ears = model.region("ears").unwrap();
-        let ear: Vec<Vec3> = skin.iter().enumerate().filter(|&(v, _)| in_ear(&ears, v)).map(|(_, &p)| p).collect();
+        let ear = ear_points(model, &skin);
         let top = ear.iter().map(|p| p.y).fold(f32::MIN, f32::max);
         let rows: Vec<Vec3> = hair.rows.iter().map(|row| row.point).collect();
         let thickness = |keep: &dyn Fn(&Vec3) -> bool| decile(rows.iter().filter(|p| keep(p)).map(|&p| hair.head.height(p)).collect(), 9).unwrap();
@@ -1950,7 +1959,6 @@ mod tests {
     #[test]
     fn short_hair_lies_on_the_head_behind_the_ears() {
         let model = FaceModel::embedded();
-        let ears = model.region("ears").unwrap();
         let mut failures = Vec::new();
         for identity in IdentityTable::built_in().iter() {
             let shape = style_shape(identity.hair_style, identity.hair_texture);
@@ -1958,7 +1966,7 @@ mod tests {
                 continue;
             }
             let (hair, skin) = hair_and_skin_at_rest(model, identity);
-            let ear: Vec<Vec3> = skin.iter().enumerate().filter(|&(v, _)| in_ear(&ears, v)).map(|(_, &p)| p).collect();
+            let ear = ear_points(model, &skin);
             let top = ear.iter().map(|p| p.y).fold(f32::MIN, f32::max);
             let back = ear.iter().map(|p| p.z).fold(f32::MAX, f32::min);
             let behind = hair.rows.iter().map(|row| row.point).filter(|p| p.x.abs() > 0.3 && p.y < top && p.z < back + 0.1);
@@ -2192,7 +2200,7 @@ mod tests {
             for texture in [HairTexture::Curly, HairTexture::Coiled] {
                 let shape = style_shape(style, texture);
                 let (_, period) = curl(texture);
-                let turns = shape.length_top.max(shape.length_back) * 1.15 / period;
+                let turns = shape.longest() / period;
                 let per_turn = shape.segments as f32 / turns;
                 assert!(per_turn >= 4.5, "{style:?} {texture:?}: {per_turn:.2} points per turn");
             }
