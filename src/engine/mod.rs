@@ -1,7 +1,7 @@
 //! The face engine: expression → deformed mesh → pixels.
 //!
 //! Stages, each its own module with plain data between them:
-//! [`asset`] (the embedded CC0 head) → [`identity`] (who) → [`rig`] (AU basis, HapFACS Eq. 1:
+//! [`asset`] (the embedded CC0 head, its tongue drawn [`subdivide`]d) → [`identity`] (who) → [`rig`] (AU basis, HapFACS Eq. 1:
 //! expression → channel values) → [`pose`] (channel values → vertex positions) → [`raster`]
 //! (triangles → visible samples) → [`shade`] (samples → colour) → [`image`] (pixels → PNG).
 //! [`sheet`] lays out labelled contact sheets for visual audits.
@@ -24,6 +24,7 @@ pub mod raster;
 pub mod rig;
 pub mod shade;
 pub mod sheet;
+pub mod subdivide;
 pub mod timeline;
 pub mod video;
 
@@ -246,10 +247,15 @@ pub fn render_posed(posed: &Posed, identity: &Identity, settings: FrameSettings)
     let light_eye = shade::ShadowMap::eye(key, light_centre);
     let (hair_lit, hair_turned) = (holder.hair.shadow_casters(light_eye), holder.hair.facing(light_eye));
     // Lashes are too thin to cast visible shadows; at shadow-map resolution they would smear.
+    // A subdivided part casts from its baked triangles.
     let casters: Vec<Triangles> = holder
         .items_with_hair(posed, &hair_turned, &hair_lit)
         .into_iter()
         .filter(|t| !matches!(Part::from_id(t.part), Some(Part::LashesUpper | Part::LashesLower)))
+        .map(|t| match Part::from_id(t.part) {
+            Some(part) => Triangles { indices: model.casting_triangles(part), ..t },
+            None => t,
+        })
         .collect();
     let shadow = shade::ShadowMap::new(&casters, key, lighting.key_size, light_centre, SHADOW_MAP_SIZE, threads);
     let shader = shade::FaceShader::new(model, posed, identity, &look, &camera)

@@ -107,6 +107,7 @@ impl PreparedIdentity {
             }
             add_target(&mut neutral, &*model.target(&name)?, |_| weight, |_| true);
         }
+        model.refine(&mut neutral);
         let eye_centres = [Part::EyeLeft, Part::EyeRight].map(|part| {
             let range = model.part(part).vertices.clone();
             let shift: Vec3 = range.clone().map(|i| neutral[i as usize] - model.rest[i as usize]).sum::<Vec3>() / range.len() as f32;
@@ -238,6 +239,7 @@ pub fn pose(model: &FaceModel, prepared: &PreparedIdentity, values: &ChannelValu
     rotate_jaw(model, &mut positions, anchor + JAW_PIVOT, values.rigid(&Channel::JawOpen))?;
     let mut eyes = turn_eyes(model, prepared, &mut positions, values);
     let head_turn = turn_head(head_weights(model)?, anchor + HEAD_PIVOT, &mut positions, &mut eyes, values);
+    model.refine(&mut positions);
     let normals = vertex_normals(model, &positions);
     Ok(Posed { positions, normals, neutral: Arc::clone(neutral), eyes, anchor, appearance, head_turn })
 }

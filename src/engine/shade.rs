@@ -35,6 +35,7 @@ use super::image::REC709;
 use super::hair::{Hair, HairModel, Hairline};
 use super::{BODY_PART, HAIR_PART};
 use super::look::{Backdrop, Lighting, Look};
+use super::subdivide::Blend;
 use super::pose::Posed;
 use super::camera::{Camera, PixelProjection};
 use super::raster::{self, Fragment, RenderOptions, SampleCount, Shader, Triangles};
@@ -161,6 +162,13 @@ struct KeyShadow {
     reach: f32,
     sharp: f32,
     soft: f32,
+}
+
+impl Blend for KeyShadow {
+    const ZERO: KeyShadow = KeyShadow::DARK;
+    fn plus_scaled(self, other: KeyShadow, weight: f32) -> KeyShadow {
+        KeyShadow { reach: self.reach + other.reach * weight, sharp: self.sharp + other.sharp * weight, soft: self.soft + other.soft * weight }
+    }
 }
 
 impl KeyShadow {
@@ -740,7 +748,12 @@ impl<'a> FaceShader<'a> {
     pub fn with_shadows(self, shadow: &'a ShadowMap) -> FaceShader<'a> {
         let key = self.lighting.lights[0].direction;
         let looked_up = |positions: &[Vec3], normals: &[Vec3]| positions.iter().zip(normals).map(|(&p, &n)| shadow.at_surface(p, n, key)).collect();
-        let key_light = looked_up(&self.posed.positions, &self.posed.normals);
+        // A subdivided part's drawn vertices take the light its baked ones are looked up for.
+        let baked = self.model.baked_vertices();
+        let mut head: Vec<KeyShadow> = self.posed.positions[..baked].iter().zip(&self.posed.normals).map(|(&p, &n)| shadow.at_surface(p, n, key)).collect();
+        head.resize(self.posed.positions.len(), KeyShadow::DARK);
+        self.model.refine(&mut head);
+        let key_light = head.into_iter().collect();
         let body_key_light = self.body.map_or_else(KeyLight::default, |body| looked_up(&body.positions, &body.normals));
         let hair_key_light = self.hair.map_or_else(KeyLight::default, |hair| hair_key_light(hair, self.hair_seen, shadow, key));
         FaceShader { key_light, body_key_light, hair_key_light, shadow: Some(shadow), ..self }
