@@ -108,7 +108,10 @@ async fn scale_two_servers_on_one_postgres_database_serve_one_study() {
     assert_eq!(stored as usize, saves.len(), "acknowledged saves: {}, stored: {stored}", saves.len());
     assert_eq!(people.iter().filter(|p| p.state == "completed").count(), completed);
     assert_eq!(people.iter().filter(|p| p.state == "abandoned").count(), abandoned);
-    assert!(completed >= 9 && abandoned >= 4, "completed {completed}, abandoned {abandoned}");
+    // The first wave, into an empty study, is admitted whole (8 × 3 reservations ≤ 28), so its
+    // three walk-aways are counted; who of a later wave gets in is a race between arrivals.
+    // The study fills: fewer than three ratings are left when no one is admitted.
+    assert!(completed >= 9 && abandoned >= 3, "completed {completed}, abandoned {abandoned}");
     // Balance across both instances: seven stimuli, each rated four times, at most one over.
     let counts = db.completed_counts(study).await.unwrap();
     assert_eq!(counts.len(), 7);
