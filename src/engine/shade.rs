@@ -1759,10 +1759,37 @@ const HAIR_LOBES: [f32; 2] = [20.0, 8.0];
 const PRIMARY_HUE: f32 = 0.6;
 
 /// The pigment of `identity`'s hair with `grey` (0..1) of it white: the pigmented fibres of
-/// greying hair lose some of their colour too.
+/// greying hair lose some of their colour too, and the white ones are mixed in as light
+/// scattered among the fibres sees them ([`mix_fibres`]).
 fn hair_pigment(identity: &Identity, grey: f32) -> Vec3 {
     let faded = identity.hair.lerp(Vec3::splat(identity.hair.dot(Vec3::splat(1.0 / 3.0))), 0.4 * identity.hair_grey);
-    faded.lerp(Vec3::new(0.4, 0.4, 0.38), grey)
+    if grey <= 0.0 {
+        return faded;
+    }
+    mix_fibres(faded, WHITE_HAIR, grey)
+}
+
+/// White hair (linear RGB): a mass of unpigmented fibres.
+const WHITE_HAIR: Vec3 = Vec3::new(0.4, 0.4, 0.38);
+
+/// The colour of a mass of fibres, `share` of them of a kind whose mass is coloured `b` and the
+/// rest of one coloured `a`. Light that enters hair is scattered from fibre to fibre before it
+/// comes out, and among dark fibres most of it is absorbed on the way: a tenth of white fibres
+/// in black hair lightens it far less than a tenth of the way to white. So the fibres are mixed
+/// by how much of the light each scattering keeps (its albedo ω), channel by channel, and the
+/// mass's colour R follows from that as for a deep layer of isotropic scatterers:
+/// R = (1 − s) / (1 + s), s = √(1 − ω).
+fn mix_fibres(a: Vec3, b: Vec3, share: f32) -> Vec3 {
+    let albedo = |r: f32| {
+        let s = (1.0 - r.clamp(0.0, 0.99)) / (1.0 + r.clamp(0.0, 0.99));
+        1.0 - s * s
+    };
+    let mass = |w: f32| {
+        let s = (1.0 - w).max(0.0).sqrt();
+        (1.0 - s) / (1.0 + s)
+    };
+    let mixed = |x: f32, y: f32| mass(albedo(x) + (albedo(y) - albedo(x)) * share.clamp(0.0, 1.0));
+    Vec3::new(mixed(a.x, b.x), mixed(a.y, b.y), mixed(a.z, b.z))
 }
 
 /// The scalp where hair grows, painted as the hair seen between and under the cards.
@@ -2396,6 +2423,25 @@ mod tests {
             found += usize::from(blocker.is_some());
         }
         assert!(passed_over > 2_000 && found > 2_000, "both cases occur: {passed_over} passed over, {found} found");
+    }
+
+    /// Fibres mixed as scattered light sees them: no white gives the hair's own colour and all
+    /// white gives white; more white is lighter; a tenth of white fibres lightens black hair
+    /// (0.008 linear) by at most 0.6 of the step the mean of the colours would take (0.54: to
+    /// 0.029, not 0.047), and blond hair (0.3) by at least 0.8 of it (0.85), as light fibres let
+    /// most of the scattered light out either way.
+    #[test]
+    fn white_fibres_lighten_dark_hair_less_than_their_share() {
+        let (black, blond) = (Vec3::splat(0.008), Vec3::splat(0.3));
+        for hair in [black, blond] {
+            assert!((mix_fibres(hair, WHITE_HAIR, 0.0) - hair).abs().max_element() < 1e-6);
+            assert!((mix_fibres(hair, WHITE_HAIR, 1.0) - WHITE_HAIR).abs().max_element() < 1e-6);
+            let steps: Vec<f32> = (0..=10).map(|k| mix_fibres(hair, WHITE_HAIR, k as f32 / 10.0).x).collect();
+            assert!(steps.windows(2).all(|w| w[1] > w[0]), "{steps:?}");
+        }
+        let step = |hair: Vec3| (mix_fibres(hair, WHITE_HAIR, 0.1).x - hair.x) / (0.1 * (WHITE_HAIR.x - hair.x));
+        assert!(step(black) <= 0.6, "black hair: {:.3} of the mean's step", step(black));
+        assert!(step(blond) >= 0.8, "blond hair: {:.3} of the mean's step", step(blond));
     }
 
     #[test]
