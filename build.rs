@@ -4,8 +4,8 @@
 //! Layout (little-endian): the magic `FACSLAB-FACE-1`; the vertices (`u32` count, then `f32`
 //! x y z each); the parts (`u32` count; each a name, a `u32` triangle count and `u32` corners);
 //! the mirror rows; the targets and the regions (`u32` count; each a name, a `u32` row count,
-//! the rows' `u32` vertex indices, then their values as `f32`). A name is a `u16` length and
-//! UTF-8 bytes. Targets and regions are in path order, so the same files give the same bytes.
+//! the rows' `u32` vertex indices, then their values as `f32`); the tongue's subdivision
+//! (`engine::subdivide::Subdivision::to_bytes`). A name is a `u16` length and UTF-8 bytes. Targets and regions are in path order, so the same files give the same bytes.
 //! A malformed file stops the build with its path and line.
 
 use std::fs;
@@ -13,20 +13,33 @@ use std::path::{Path, PathBuf};
 
 #[path = "src/engine/face_text.rs"]
 mod face_text;
+// Only the map's making and writing are used here.
+#[allow(dead_code)]
+#[path = "src/engine/subdivide.rs"]
+mod subdivide;
 
 const MAGIC: &[u8] = b"FACSLAB-FACE-1";
 
 fn main() {
     println!("cargo:rerun-if-changed=build.rs");
     println!("cargo:rerun-if-changed=src/engine/face_text.rs");
+    println!("cargo:rerun-if-changed=src/engine/subdivide.rs");
     println!("cargo:rerun-if-changed=stimuli/face");
     let root = Path::new("stimuli/face");
     let mut out = MAGIC.to_vec();
-    bake_mesh(root, &mut out);
+    let (vertices, tongue) = bake_mesh(root, &mut out);
     let mirror = rows(&root.join("mirror.txt"), 1);
     put_rows(&mut out, &mirror);
     bake_dir(&root.join("targets"), "target", 3, &mut out);
     bake_dir(&root.join("regions"), "txt", 1, &mut out);
+    // The tongue's subdivision, its new vertices numbered after the baked ones.
+    let mut partners: Vec<u32> = (0..vertices).collect();
+    for (index, partner) in &mirror {
+        if let (Some(slot), Some(&p)) = (partners.get_mut(*index as usize), partner.first()) {
+            *slot = p as u32;
+        }
+    }
+    out.extend(subdivide::Subdivision::steps(subdivide::TONGUE_STEPS, &tongue, vertices, &partners).to_bytes());
     let dest = PathBuf::from(std::env::var("OUT_DIR").expect("cargo sets OUT_DIR")).join("face.bin");
     fs::write(&dest, out).unwrap_or_else(|e| panic!("cannot write {}: {e}", dest.display()));
 }
@@ -35,9 +48,12 @@ fn text(path: &Path) -> String {
     fs::read_to_string(path).unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()))
 }
 
-fn bake_mesh(root: &Path, out: &mut Vec<u8>) {
+/// Writes the vertices and parts of `head.obj`; returns the number of vertices and the tongue's
+/// triangles.
+fn bake_mesh(root: &Path, out: &mut Vec<u8>) -> (u32, Vec<[u32; 3]>) {
     let path = root.join("head.obj");
     let (positions, parts) = face_text::parse_obj(&text(&path)).unwrap_or_else(|(line, message)| panic!("{}, line {line}: {message}", path.display()));
+    let tongue = parts.iter().find(|p| p.name == "tongue").map(|p| p.triangles.clone()).unwrap_or_else(|| panic!("{} has no tongue", path.display()));
     put_u32(out, positions.len());
     for v in positions.iter().flatten() {
         out.extend(v.to_le_bytes());
@@ -50,6 +66,7 @@ fn bake_mesh(root: &Path, out: &mut Vec<u8>) {
             out.extend(i.to_le_bytes());
         }
     }
+    (u32::try_from(positions.len()).expect("counts fit in u32"), tongue)
 }
 
 fn rows(path: &Path, width: usize) -> Vec<(u32, Vec<f32>)> {

@@ -6,9 +6,9 @@
 //! `index dx dy dz`, region weights `index weight`) and `groups.txt`. Out: [`FaceModel`] with rest
 //! positions, triangles per [`Part`], and lookups for targets and regions by name.
 //!
-//! The tongue is subdivided at load ([`TONGUE_STEPS`] Loop steps, [`super::subdivide`]):
-//! its new vertices follow the baked ones, the baked tongue's vertices stay (targets and regions
-//! move them) but draw nothing, and [`FaceModel::refine`] works the new ones out from them.
+//! The tongue is drawn subdivided ([`super::subdivide`]; `build.rs` bakes the map too): its new
+//! vertices follow the baked ones, the baked tongue's vertices stay (targets and regions move
+//! them) but draw nothing, and [`FaceModel::refine`] works the new ones out from them.
 //!
 //! Units are decimetres; +y is up, +z points out of the face, +x is the person's left.
 //! Invariant: everything here is read-only after loading; the same files give the same model
@@ -69,6 +69,13 @@ impl Reader {
     fn rows(&mut self, width: usize) -> Result<BakedRows, AssetError> {
         let n = self.count()?;
         Ok(BakedRows { indices: self.take(4 * n)?, values: self.take(4 * n * width)? })
+    }
+
+    /// A part's subdivision, as `build.rs` wrote it.
+    fn subdivision(&mut self) -> Result<Subdivision, AssetError> {
+        let (map, used) = FACE_BIN.get(self.at..).and_then(Subdivision::from_bytes).ok_or_else(|| AssetError::Missing("baked face model (the tongue's subdivision)".into()))?;
+        self.at += used;
+        Ok(map)
     }
 
     fn named_rows(&mut self, width: usize) -> Result<HashMap<&'static str, BakedRows>, AssetError> {
@@ -151,6 +158,13 @@ impl Part {
     }
 }
 
+impl Blend for Vec3 {
+    const ZERO: Vec3 = Vec3::ZERO;
+    fn plus_scaled(self, other: Vec3, weight: f32) -> Vec3 {
+        self + other * weight
+    }
+}
+
 /// A sparse morph target: per-vertex offsets in decimetres.
 #[derive(Debug, Clone, Default)]
 pub struct Target {
@@ -177,7 +191,7 @@ pub struct FaceModel {
     region_rows: HashMap<&'static str, BakedRows>,
     targets: Mutex<HashMap<String, Arc<Target>>>,
     lash_roots: OnceLock<LashRoots>,
-    /// The parts drawn subdivided (the tongue, [`TONGUE_STEPS`]).
+    /// The parts drawn subdivided (the tongue, [`super::subdivide::TONGUE_STEPS`]).
     subdivided: Vec<Subdivided>,
 }
 
@@ -191,11 +205,6 @@ struct Subdivided {
     map: Subdivision,
 }
 
-/// Loop steps the tongue is subdivided by at load: its 448 triangles drew a polygonal outline (a
-/// trapezoid with straight sides) where AU19 puts it out between the lips. (An interpolating
-/// butterfly step, which keeps the modelled size, left the tip notched and kinked where the
-/// mesh's rim has corners.)
-pub const TONGUE_STEPS: usize = 2;
 
 /// For every lash vertex (upper and lower cards, both eyes), the skin vertex nearest to it at
 /// rest: the lash's root on the lid margin, which moves it when a lid moves and whose normal,
@@ -273,17 +282,19 @@ impl FaceModel {
         }
         let target_rows = reader.named_rows(3)?;
         let region_rows = reader.named_rows(1)?;
+        let tongue = reader.subdivision()?;
         let mut model =
             FaceModel { rest, parts, mirror, target_rows, region_rows, targets: Mutex::new(HashMap::new()), lash_roots: OnceLock::new(), subdivided: Vec::new() };
-        model.subdivide(Part::Tongue, TONGUE_STEPS);
+        model.subdivide(Part::Tongue, tongue)?;
         Ok(model)
     }
 
-    /// Replaces `part`'s triangles by `steps` Loop steps over them, on new vertices appended to
-    /// the model (rest positions and mirror partners included).
-    fn subdivide(&mut self, part: Part, steps: usize) {
-        let first = self.rest.len() as u32;
-        let map = Subdivision::steps(steps, &self.part(part).triangles, first, &self.mirror);
+    /// Replaces `part`'s triangles by those of `map`, a subdivision of them, on new vertices
+    /// appended to the model (rest positions and mirror partners included).
+    fn subdivide(&mut self, part: Part, map: Subdivision) -> Result<(), AssetError> {
+        if map.vertices().start as usize != self.rest.len() {
+            return Err(AssetError::Missing(format!("baked face model ({part:?}'s subdivision does not follow the vertices)")));
+        }
         self.rest.resize(map.vertices().end as usize, Vec3::ZERO);
         map.apply(&mut self.rest);
         self.mirror.extend_from_slice(map.mirror());
@@ -291,6 +302,7 @@ impl FaceModel {
         mesh.vertices = map.vertices();
         let baked = std::mem::replace(&mut mesh.triangles, map.triangles().to_vec());
         self.subdivided.push(Subdivided { part, baked, map });
+        Ok(())
     }
 
     /// Works out the subdivided parts' vertices in `values` (the model's vertices posed or
@@ -430,7 +442,7 @@ mod tests {
         // The baked vertices end with the lashes; the subdivided tongue's follow them.
         assert_eq!(model.part(Part::LashesLower).vertices.end, 5040);
         assert_eq!(model.part(Part::Tongue).vertices.end, n);
-        assert_eq!(model.part(Part::Tongue).triangles.len(), 448 * 4usize.pow(TONGUE_STEPS as u32));
+        assert_eq!(model.part(Part::Tongue).triangles.len(), 448 * 4usize.pow(crate::engine::subdivide::TONGUE_STEPS as u32));
         assert!(model.parts.iter().flat_map(|p| p.triangles.iter().flatten()).all(|&i| i < n));
     }
 

@@ -9,6 +9,10 @@
 //! neighbours along the edge). The surface is smoothed by drawing it in from its corners, so a
 //! convex part comes out a little smaller than its mesh.
 //!
+//! `build.rs` works the tongue's subdivision out ([`TONGUE_STEPS`]) and bakes it into the face
+//! model ([`Subdivision::to_bytes`]); loading reads it back ([`Subdivision::from_bytes`]). This
+//! file is compiled into the build script too, so it uses nothing but the standard library.
+//!
 //! Invariants: the weights of each new vertex sum to 1, so a rigid move of the part moves the
 //! subdivided part rigidly; the map is applied after every target, pull and turn, so the new
 //! vertices follow whatever moved the old ones; the order of the new vertices and of every sum
@@ -18,7 +22,11 @@
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::ops::Range;
 
-use glam::Vec3;
+/// Loop steps the tongue is subdivided by: its 448 triangles drew a polygonal outline (a
+/// trapezoid with straight sides) where AU19 puts it out between the lips. (An interpolating
+/// butterfly step, which keeps the modelled size, left the tip notched and kinked where the
+/// mesh's rim has corners.)
+pub const TONGUE_STEPS: usize = 2;
 
 /// Loop subdivision of a part (one or more steps as one map): its new vertices and triangles.
 #[derive(Debug, Clone)]
@@ -207,6 +215,49 @@ impl Subdivision {
         &self.mirror
     }
 
+    /// The map as little-endian bytes: `first`, the number of new vertices n, their n + 1 row
+    /// starts, the number of terms, the terms' sources and weights, the number of triangles and
+    /// their corners, and the n mirror partners (all `u32` but the weights, `f32`).
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let mut out = Vec::new();
+        let mut put = |v: u32| out.extend(v.to_le_bytes());
+        put(self.first);
+        put(self.mirror.len() as u32);
+        self.starts.iter().for_each(|&v| put(v));
+        put(self.sources.len() as u32);
+        self.sources.iter().for_each(|&v| put(v));
+        self.weights.iter().for_each(|&w| put(w.to_bits()));
+        put(self.triangles.len() as u32);
+        self.triangles.iter().flatten().for_each(|&v| put(v));
+        self.mirror.iter().for_each(|&v| put(v));
+        out
+    }
+
+    /// A map written by [`Self::to_bytes`] at the start of `bytes`, and how many bytes it took;
+    /// `None` if they are cut short or do not hold a well-formed map (rows that do not follow
+    /// one another, a source at or past the new vertices, a corner outside them).
+    pub fn from_bytes(bytes: &[u8]) -> Option<(Subdivision, usize)> {
+        let mut at: usize = 0;
+        let mut take = |n: usize| -> Option<Vec<u32>> {
+            let words = bytes.get(at..at.checked_add(n.checked_mul(4)?)?)?;
+            at += 4 * n;
+            Some(words.chunks_exact(4).map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect())
+        };
+        let [first, count] = take(2)?[..] else { return None };
+        let starts = take(count as usize + 1)?;
+        let terms = take(1)?[0] as usize;
+        let sources = take(terms)?;
+        let weights: Vec<f32> = take(terms)?.into_iter().map(f32::from_bits).collect();
+        let corners = take(1)?[0] as usize;
+        let triangles: Vec<[u32; 3]> = take(corners.checked_mul(3)?)?.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+        let mirror = take(count as usize)?;
+        let end = first.checked_add(count)?;
+        let rows_follow = starts.first() == Some(&0) && starts.windows(2).all(|w| w[0] <= w[1]) && starts.last() == Some(&(terms as u32));
+        let inside = |v: &u32| (first..end).contains(v);
+        let well_formed = rows_follow && sources.iter().all(|&v| v < first) && triangles.iter().flatten().all(inside) && mirror.iter().all(inside);
+        well_formed.then_some((Subdivision { first, starts, sources, weights, triangles, mirror }, at))
+    }
+
     /// Works out the new vertices' values in `values` (positions, or anything that varies
     /// linearly over the surface) from the ones they are made of. `values` holds at least
     /// [`Self::vertices`]`.end` of them.
@@ -226,16 +277,10 @@ pub trait Blend: Copy {
     fn plus_scaled(self, other: Self, weight: f32) -> Self;
 }
 
-impl Blend for Vec3 {
-    const ZERO: Vec3 = Vec3::ZERO;
-    fn plus_scaled(self, other: Vec3, weight: f32) -> Vec3 {
-        self + other * weight
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::Vec3;
 
     /// A regular octahedron, counter-clockwise from outside.
     fn octahedron() -> (Vec<Vec3>, Vec<[u32; 3]>) {
@@ -323,6 +368,24 @@ mod tests {
             let (p, q) = (at_once[i as usize], at_once[partner as usize]);
             assert!(p.distance(q * Vec3::new(-1.0, 1.0, 1.0)) < 1e-6, "{i} {p} / {partner} {q}");
         }
+    }
+
+    /// The bytes give back the same map, and cut short or with a source out of range they are
+    /// refused.
+    #[test]
+    fn the_map_comes_back_from_its_bytes() {
+        let (_, triangles) = octahedron();
+        let map = Subdivision::steps(2, &triangles, 6, &[1, 0, 2, 3, 4, 5]);
+        let bytes = map.to_bytes();
+        let (back, used) = Subdivision::from_bytes(&bytes).expect("well-formed");
+        assert_eq!(used, bytes.len());
+        assert_eq!((back.first, &back.starts, &back.sources, &back.triangles, &back.mirror), (map.first, &map.starts, &map.sources, &map.triangles, &map.mirror));
+        assert!(back.weights.iter().zip(&map.weights).all(|(a, b)| a.to_bits() == b.to_bits()));
+        assert!(Subdivision::from_bytes(&bytes[..bytes.len() - 1]).is_none());
+        let mut bad = bytes.clone();
+        let source_at = 4 * (2 + map.starts.len() + 1);
+        bad[source_at..source_at + 4].copy_from_slice(&6u32.to_le_bytes());
+        assert!(Subdivision::from_bytes(&bad).is_none(), "a source among the new vertices");
     }
 
     /// A mirror-symmetric mesh (the octahedron across x = 0: vertices 0 and 1 swap) gives new
