@@ -152,12 +152,15 @@ impl Subdivision {
         Subdivision { first, starts, sources, weights, triangles, mirror }
     }
 
-    /// `steps` Loop steps (at least one) over `triangles` as one map from the part's vertices:
-    /// the new vertices are those of the last step, numbered from `first`; the steps between
-    /// leave no vertices behind.
+    /// `steps` Loop steps (at least one; 0 panics) over `triangles` as one map from the part's
+    /// vertices: the new vertices are those of the last step, numbered from `first`; the steps
+    /// between leave no vertices behind.
     pub fn steps(steps: usize, triangles: &[[u32; 3]], first: u32, mirror: &[u32]) -> Subdivision {
+        assert!(steps >= 1, "a subdivision takes at least one step");
         let mut done = Subdivision::once(triangles, first, mirror);
         for _ in 1..steps {
+            // The partners of the vertices before `first` (themselves where `mirror` ends
+            // sooner), then those of the steps' vertices so far.
             let mut mirror = mirror.to_vec();
             mirror.extend(mirror.len() as u32..first);
             mirror.truncate(first as usize);
