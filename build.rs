@@ -5,8 +5,9 @@
 //! x y z each); the parts (`u32` count; each a name, a `u32` triangle count and `u32` corners);
 //! the mirror rows; the targets and the regions (`u32` count; each a name, a `u32` row count,
 //! the rows' `u32` vertex indices, then their values as `f32`); the tongue's subdivision
-//! (`engine::subdivide::Subdivision::to_bytes`). A name is a `u16` length and UTF-8 bytes. Targets and regions are in path order, so the same files give the same bytes.
-//! A malformed file stops the build with its path and line.
+//! (`engine::subdivide::Subdivision::to_bytes`). A name is a `u16` length and UTF-8 bytes.
+//! Targets and regions are in path order, so the same files give the same bytes. A malformed
+//! file stops the build with its path and line.
 
 use std::fs;
 use std::path::{Path, PathBuf};

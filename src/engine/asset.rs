@@ -205,7 +205,6 @@ struct Subdivided {
     map: Subdivision,
 }
 
-
 /// For every lash vertex (upper and lower cards, both eyes), the skin vertex nearest to it at
 /// rest: the lash's root on the lid margin, which moves it when a lid moves and whose normal,
 /// light and paint the skin seen between the lash clumps takes.

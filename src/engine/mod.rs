@@ -251,10 +251,10 @@ pub fn render_posed(posed: &Posed, identity: &Identity, settings: FrameSettings)
     let casters: Vec<Triangles> = holder
         .items_with_hair(posed, &hair_turned, &hair_lit)
         .into_iter()
-        .filter(|t| !matches!(Part::from_id(t.part), Some(Part::LashesUpper | Part::LashesLower)))
-        .map(|t| match Part::from_id(t.part) {
-            Some(part) => Triangles { indices: model.casting_triangles(part), ..t },
-            None => t,
+        .filter_map(|t| match Part::from_id(t.part) {
+            Some(Part::LashesUpper | Part::LashesLower) => None,
+            Some(part) => Some(Triangles { indices: model.casting_triangles(part), ..t }),
+            None => Some(t),
         })
         .collect();
     let shadow = shade::ShadowMap::new(&casters, key, lighting.key_size, light_centre, SHADOW_MAP_SIZE, threads);

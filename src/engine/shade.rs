@@ -747,14 +747,13 @@ impl<'a> FaceShader<'a> {
     /// looked up per pixel, so the edge follows the shadow, not the mesh.
     pub fn with_shadows(self, shadow: &'a ShadowMap) -> FaceShader<'a> {
         let key = self.lighting.lights[0].direction;
-        let looked_up = |positions: &[Vec3], normals: &[Vec3]| positions.iter().zip(normals).map(|(&p, &n)| shadow.at_surface(p, n, key)).collect();
+        let looked_up = |positions: &[Vec3], normals: &[Vec3]| positions.iter().zip(normals).map(|(&p, &n)| shadow.at_surface(p, n, key)).collect::<Vec<_>>();
         // A subdivided part's drawn vertices take the light its baked ones are looked up for.
-        let baked = self.model.baked_vertices();
-        let mut head: Vec<KeyShadow> = self.posed.positions[..baked].iter().zip(&self.posed.normals).map(|(&p, &n)| shadow.at_surface(p, n, key)).collect();
+        let mut head = looked_up(&self.posed.positions[..self.model.baked_vertices()], &self.posed.normals);
         head.resize(self.posed.positions.len(), KeyShadow::DARK);
         self.model.refine(&mut head);
         let key_light = head.into_iter().collect();
-        let body_key_light = self.body.map_or_else(KeyLight::default, |body| looked_up(&body.positions, &body.normals));
+        let body_key_light = self.body.map_or_else(KeyLight::default, |body| looked_up(&body.positions, &body.normals).into_iter().collect());
         let hair_key_light = self.hair.map_or_else(KeyLight::default, |hair| hair_key_light(hair, self.hair_seen, shadow, key));
         FaceShader { key_light, body_key_light, hair_key_light, shadow: Some(shadow), ..self }
     }
