@@ -146,13 +146,45 @@ struct StyleShape {
     gravity: f32,
     /// How strongly strands over the skull are drawn back onto it (0 = free, 1 = flat on it).
     hug: f32,
-    /// Strands are gathered to this point (bun, ponytail).
+    /// Strands are gathered toward this point (bun, ponytail), to where it lies just off the
+    /// skull ([`StyleShape::gathering_point`]).
     gather: Option<Vec3>,
+    /// The ball the gathered strands are wound into (none: a tail hangs from the gathering
+    /// point).
+    bun: Option<Bun>,
+    /// The share of their texture's curl that strands keep: hair pulled to a bun or a tail lies
+    /// taut, its waves and curls stretched nearly flat (1: hair left free).
+    curl_kept: f32,
     /// The share of their length kept by strands rooted at the hairline's lowest, behind the
     /// ears and at the nape: hair standing out from the head (an afro) is cut shorter from the
     /// temples down, as a barber tapers it (1: not cut).
     nape_kept: f32,
 }
+
+/// A bun: a ball of strands wound round (radius in decimetres), sitting on the head where the
+/// gathered strands meet.
+#[derive(Clone, Copy)]
+struct Bun {
+    radius: f32,
+}
+
+impl Bun {
+    /// The ball's centre over the gathering point `point`: sunk a fifth of its radius into the
+    /// strands gathered there.
+    fn centre(self, point: Vec3) -> Vec3 {
+        point + (point - HEAD_CENTRE).normalize_or(Vec3::Y) * (0.8 * self.radius)
+    }
+}
+
+/// The strands wound around a bun's ball.
+const BUN_STRANDS: u32 = 260;
+
+/// How far (decimetres) off the skin the gathering point lies: within reach of the strands
+/// drawn onto the skull on their way to it.
+const GATHER_CLEARANCE: f32 = 0.02;
+
+/// How much of their curl strands pulled to a bun or a tail keep ([`StyleShape::curl_kept`]).
+const GATHERED_CURL_KEPT: f32 = 0.12;
 
 impl StyleShape {
     /// Whether the hair at the sides hangs down over the ears (longer than the 3 cm from the
@@ -169,6 +201,11 @@ impl StyleShape {
     /// spikes); other hair lies on the skull only above them.
     fn lies_down_to_nape(&self) -> bool {
         self.gather.is_none() && !self.hangs_over_ears()
+    }
+
+    /// Where the strands meet: over [`Self::gather`], just off this `head`'s skin.
+    fn gathering_point(&self, head: &HeadMap) -> Option<Vec3> {
+        self.gather.map(|p| head.above_skin(p, GATHER_CLEARANCE))
     }
     /// The longest a strand grows (decimetres): the longer of the style's lengths, at the most
     /// of [`grow`]'s spread of lengths.
@@ -295,7 +332,17 @@ fn style_shape_uncurled(style: HairStyle, texture: HairTexture) -> StyleShape {
         gravity,
         hug: if coiled { 0.0 } else { 0.6 },
         gather: None,
+        bun: None,
+        curl_kept: 1.0,
         nape_kept: 1.0,
+    };
+    // Hair pulled back to a bun or a tail: drawn close onto the skull, taut, its strands long
+    // enough to reach the gathering point from the hairline and from the nape.
+    let gathered = |point, length, segments| StyleShape {
+        gather: Some(point),
+        hug: 0.85,
+        curl_kept: GATHERED_CURL_KEPT,
+        ..base(length, length, 380.0, segments, 0.022, 0.02, 0.0)
     };
     match style {
         HairStyle::Cropped => base(0.05, 0.04, 1100.0, 2, 0.008, 0.05, 0.0),
@@ -305,8 +352,10 @@ fn style_shape_uncurled(style: HairStyle, texture: HairTexture) -> StyleShape {
         HairStyle::Medium => base(1.0, 0.9, 380.0, 12, 0.025, 0.05, 2.5),
         HairStyle::Shoulder => base(1.75, 1.6, 420.0, 16, 0.025, 0.05, 3.0),
         HairStyle::Long => base(2.7, 2.5, 420.0, 20, 0.025, 0.05, 3.0),
-        HairStyle::Bun => StyleShape { gather: Some(Vec3::new(0.0, 8.15, -0.42)), hug: 0.85, ..base(1.2, 0.9, 380.0, 12, 0.022, 0.02, 0.0) },
-        HairStyle::Ponytail => StyleShape { gather: Some(Vec3::new(0.0, 7.85, -0.5)), hug: 0.85, ..base(1.2, 0.9, 380.0, 12, 0.022, 0.02, 0.0) },
+        // On the crown, a little behind its top: seen from the front, the bun shows over the head.
+        HairStyle::Bun => StyleShape { bun: Some(Bun { radius: 0.25 }), ..gathered(Vec3::new(0.0, 8.45, -0.08), 2.3, 14) },
+        // At the back of the head; the tail hangs to the shoulders' height.
+        HairStyle::Ponytail => gathered(Vec3::new(0.0, 7.8, -0.4), 3.0, 16),
     }
 }
 
@@ -381,6 +430,11 @@ impl HeadMap {
         let r = d.length();
         let target = self.surface(p) + clearance;
         if r <= target { p } else { HEAD_CENTRE + d * ((r + (target - r) * amount) / r.max(1e-6)) }
+    }
+
+    /// The point `clearance` above the skin in the direction of `p` from the centre.
+    fn above_skin(&self, p: Vec3, clearance: f32) -> Vec3 {
+        HEAD_CENTRE + (p - HEAD_CENTRE).normalize_or(Vec3::Y) * (self.surface(p) + clearance)
     }
 
     /// Whether `p` lies within the ears where they are left out of the surface.
@@ -597,7 +651,7 @@ fn keep_clear_of_face_and_shoulders(mut p: Vec3, root_y: f32, head: &HeadMap, cu
         }
     }
     // Around the neck.
-    if p.y < 6.3 {
+    if p.y < NECK_TOP {
         let radial = Vec2::new(p.x, p.z - 0.2);
         let r = radial.length();
         if r < 0.62 {
@@ -613,10 +667,21 @@ fn keep_clear_of_face_and_shoulders(mut p: Vec3, root_y: f32, head: &HeadMap, cu
     p
 }
 
-/// How straight and wavy hair is combed, for lighting the cards that lie on the scalp along
-/// it ([`Card::combed`]); curls and coils keep their own directions, which are their texture.
+/// The height (base mesh) below which hanging hair is kept off the neck.
+const NECK_TOP: f32 = 6.3;
+
+/// How combed hair ([`lies_combed`]) is combed, for lighting the cards that lie on the scalp
+/// along it ([`Card::combed`]).
 fn combed_lighting(identity: &Identity, shape: &StyleShape) -> Option<(Parting, Option<Vec3>)> {
-    matches!(identity.hair_texture, HairTexture::Straight | HairTexture::Wavy).then_some((identity.parting, shape.gather))
+    lies_combed(identity).then_some((identity.parting, shape.gather))
+}
+
+/// Whether `identity`'s hair lies combed along the scalp: straight and wavy hair, and any hair
+/// pulled taut to a bun or a tail. Curls and coils left free keep their own directions, which
+/// are their texture.
+pub(crate) fn lies_combed(identity: &Identity) -> bool {
+    matches!(identity.hair_texture, HairTexture::Straight | HairTexture::Wavy)
+        || style_shape_uncurled(identity.hair_style, identity.hair_texture).gather.is_some()
 }
 
 /// Fibres drawn side by side across one card (for greying): each stands for a bundle of hairs
@@ -849,8 +914,8 @@ impl HairModel {
             hair.strand_tone.push(lock_tone(root.rest, n as u32));
             hair.strand_grey.push(greying(identity.hair_grey, root.rest, n as u32));
         }
-        if let (HairStyle::Bun, Some(centre)) = (identity.hair_style, shape.gather) {
-            hair.add_bun(centre, &shape, roots.first().map_or(0, |r| r.vertex), identity.hair_grey);
+        if let (Some(bun), Some(point)) = (shape.bun, shape.gathering_point(&hair.head)) {
+            hair.add_bun(bun, point, &shape, roots.first().map_or(0, |r| r.vertex), identity.hair_grey);
         }
         let normals = super::pose::vertex_normals(model, neutral);
         hair.add_beard(model, identity, &aligned, &normals[..skin_end]);
@@ -982,12 +1047,11 @@ impl HairModel {
         std::borrow::Cow::Owned(positions)
     }
 
-    /// A bun: strands wound around a ball at `centre`, as cards of the same length as the others.
-    fn add_bun(&mut self, centre: Vec3, shape: &StyleShape, root_vertex: u32, grey: f32) {
-        let ball = centre + Vec3::new(0.0, 0.05, -0.2);
-        let radius = 0.3;
-        let count = 260;
-        for n in 0..count {
+    /// A bun: strands wound around its ball, as cards of the same length as the others. The
+    /// ball sits on the gathering point `point`, a little sunk into the strands gathered there.
+    fn add_bun(&mut self, bun: Bun, point: Vec3, shape: &StyleShape, root_vertex: u32, grey: f32) {
+        let (ball, radius) = (bun.centre(point), bun.radius);
+        for n in 0..BUN_STRANDS {
             let tilt = std::f32::consts::PI * hash01(n, 11, 5);
             let start = std::f32::consts::TAU * hash01(n, 12, 6);
             let axis = Vec3::new(tilt.cos(), hash01(n, 13, 7) - 0.5, tilt.sin()).normalize();
@@ -1564,6 +1628,22 @@ fn comb_direction(root: &Root, parting: Parting, gather: Option<Vec3>) -> Vec3 {
 const TAPER_FROM: f32 = 7.75;
 const TAPER_TO: f32 = 6.85;
 
+/// The direction a gathered strand at `centre`, growing along `direction` by `step`, takes on
+/// toward its gathering point `point`; `None` when the point is within the step (reached).
+fn steer_to(point: Vec3, centre: Vec3, direction: Vec3, step: f32) -> Option<Vec3> {
+    let to = point - centre;
+    (to.length() > step).then(|| (direction * 0.5 + to.normalize() * 0.5).normalize())
+}
+
+/// The pull of gravity (per decimetre of strand) on a tail hanging from its gathering point,
+/// and the most (decimetres) its strands' courses lie from its middle, before their waves or
+/// curls.
+const TAIL_GRAVITY: f32 = 3.0;
+const TAIL_HALF_WIDTH: f32 = 0.07;
+
+/// The way a tail's strands leave the gathering point: down and a little back.
+const TAIL_START: Vec3 = Vec3::new(0.0, -0.958, -0.287);
+
 /// A strand's points from its root, or `None` for a root from which hair cannot grow (it lies
 /// under an overhang, the ear, and its first step would jump out over it, or it lies within the
 /// ears that hair is cut around).
@@ -1588,17 +1668,33 @@ fn grow(root: &Root, n: u32, identity: &Identity, shape: &StyleShape, head: &Hea
     let lies_down_to_nape = shape.lies_down_to_nape();
     let mut points = vec![root.position];
     let mut centre = root.position;
+    // How far along the strand it reached its gathering point (a tail's strand).
+    let mut gathered_at = None;
+    let gathering_point = shape.gathering_point(head);
     for k in 1..=shape.segments {
-        if let Some(point) = shape.gather {
-            let to = point - centre;
-            if to.length() > step {
-                direction = (direction * 0.5 + to.normalize() * 0.5).normalize();
-            } else {
-                direction = (direction + Vec3::NEG_Y * 0.8).normalize();
+        let travelled = step * k as f32;
+        if let (Some(point), None) = (gathering_point, gathered_at) {
+            match steer_to(point, centre, direction, step) {
+                Some(steered) => direction = steered,
+                // A bun's strand ends in the ball (its remaining points collapse there).
+                None if shape.bun.is_some() => {
+                    points.resize(shape.segments + 1, point);
+                    break;
+                }
+                // A tail's leaves the band downward and out from the head, whichever way it came.
+                None => {
+                    gathered_at = Some(travelled);
+                    direction = TAIL_START;
+                }
             }
         }
-        direction = (direction + Vec3::NEG_Y * shape.gravity * step + fan_out(centre) * step).normalize();
+        // A tail hangs as one bunch, down the middle of the back (not fanned out over it).
+        let (gravity, fan) = if gathered_at.is_some() { (TAIL_GRAVITY, Vec3::ZERO) } else { (shape.gravity, fan_out(centre)) };
+        direction = (direction + Vec3::NEG_Y * gravity * step + fan * step).normalize();
         let mut next = centre + direction * step;
+        if gathered_at.is_some() {
+            next.x = next.x.clamp(-TAIL_HALF_WIDTH, TAIL_HALF_WIDTH);
+        }
         let clearance = layer * (k as f32 / shape.segments as f32).min(1.0).sqrt() + 0.004;
         next = head.keep_outside(next, clearance);
         // Over the skull, hair lies on it rather than standing off it; short hair all the way.
@@ -1612,11 +1708,13 @@ fn grow(root: &Root, n: u32, identity: &Identity, shape: &StyleShape, head: &Hea
         next = keep_clear_of_face_and_shoulders(next, root.position.y, head, waves_out);
         direction = (next - centre).normalize_or(direction);
         centre = next;
-        // Curl: an offset turning around the strand's direction.
-        let travelled = step * k as f32;
+        // Curl: an offset turning around the strand's direction. Hair pulled taut keeps little
+        // of it; a tail's strands take it back within a centimetre of the gathering point.
         let angle = phase + std::f32::consts::TAU * curl_turned(texture, travelled, centre) / curl_period;
         let grow_in = (travelled / 0.1).min(1.0);
-        let offset = curl_offset(texture, direction, centre, angle) * curl_radius * grow_in;
+        let freed = gathered_at.map_or(0.0, |at| ((travelled - at) / 0.1).clamp(0.0, 1.0));
+        let kept = shape.curl_kept + (1.0 - shape.curl_kept) * freed;
+        let offset = curl_offset(texture, direction, centre, angle) * curl_radius * kept * grow_in;
         let point = head.keep_outside(centre + offset, 0.004);
         // A strand that hangs below the ears and that the jaw, neck or shoulders would make
         // jump ends where it is (its remaining points collapse there), rather than being drawn
@@ -1714,6 +1812,95 @@ mod tests {
     fn decile(mut values: Vec<f32>, tenths: usize) -> Option<f32> {
         values.sort_by(f32::total_cmp);
         values.get(values.len() * tenths / 10).copied()
+    }
+
+    /// `id`'s hair grown in `style` and `texture`, its style's shape and where its strands meet.
+    fn gathered_hair(id: &str, style: HairStyle, texture: HairTexture) -> (HairModel, StyleShape, Vec3) {
+        let (mut identity, posed) = neutral(id);
+        (identity.hair_style, identity.hair_texture) = (style, texture);
+        let hair = HairModel::new(FaceModel::embedded(), &identity, &posed.neutral);
+        let shape = style_shape(style, texture);
+        let point = shape.gathering_point(&hair.head).expect("a gathered style");
+        (hair, shape, point)
+    }
+
+    /// A ponytail's strands, of every texture, all reach the gathering point (a hand's breadth
+    /// of strand from the hairline, over the skull) and hang from it as one bunch: within the
+    /// tail's width of the middle of the back (and a curl's turn and 2 mm more) above the neck,
+    /// behind it along the neck, nine in ten at least 10 cm below the band (the strands from the
+    /// hairline, which have come farthest, end sooner). Steered to a point that lay off the
+    /// skull beyond their reach, the strands circled over the back of the head: no tail at all;
+    /// turned back toward it from where they met it, the nape's strands rose over the crown and
+    /// hung down the forehead. Pulled to the band they lie taut: over the skull nine in ten of
+    /// their points lie within 3.5 mm of the chord between their neighbours, as straight hair's
+    /// do (3.2 mm; curls left free there, 8.8 mm).
+    #[test]
+    fn a_ponytail_hangs_from_where_its_strands_meet() {
+        for texture in [HairTexture::Straight, HairTexture::Wavy, HairTexture::Curly, HairTexture::Coiled] {
+            let (hair, shape, point) = gathered_hair("wf1", HairStyle::Ponytail, texture);
+            let rows = hair.rows_per_card();
+            let cards: Vec<&[CardRow]> = hair.rows.chunks(rows).collect();
+            let (curl_radius, _) = curl(texture);
+            let mut on_skull = Vec::new();
+            let mut failures = Vec::new();
+            let mut short = 0;
+            for (n, card) in cards.iter().enumerate() {
+                // Where the strand comes nearest the gathering point: within a step of it.
+                let distances = card.iter().map(|row| row.point.distance(point));
+                let (met, nearest) = distances.enumerate().min_by(|a, b| a.1.total_cmp(&b.1)).expect("a card has rows");
+                if nearest > 2.0 * GATHER_CLEARANCE + shape.longest() / shape.segments as f32 {
+                    failures.push(format!("card {n} comes no nearer than {nearest:.3} dm to the gathering point"));
+                    continue;
+                }
+                on_skull.extend(card[..met.max(2)].windows(3).map(|w| w[1].point.distance((w[0].point + w[2].point) * 0.5)));
+                let tail = &card[met..];
+                let tip = tail[tail.len() - 1].point;
+                if tip.y > point.y - 1.0 {
+                    short += 1;
+                }
+                // Above the neck, within the tail's width; along the neck, behind it.
+                let (over_neck, along_neck): (Vec<Vec3>, Vec<Vec3>) =
+                    tail.iter().map(|row| row.point).filter(|p| p.y < point.y - 0.2).partition(|p| p.y >= NECK_TOP);
+                let off = over_neck.iter().map(|p| p.x.abs()).fold(0.0, f32::max);
+                if off > TAIL_HALF_WIDTH + curl_radius + 0.02 {
+                    failures.push(format!("card {n}: the tail's strand lies {off:.3} dm from the middle"));
+                }
+                let beside = along_neck.iter().map(|p| p.x.abs()).fold(0.0, f32::max);
+                if beside > 0.2 {
+                    failures.push(format!("card {n}: the tail's strand lies {beside:.3} dm beside the neck's middle"));
+                }
+            }
+            assert!(failures.is_empty(), "{texture:?}: {} of {} cards fail:\n{}", failures.len(), cards.len(), failures[..failures.len().min(8)].join("\n"));
+            assert!(short * 10 <= cards.len(), "{texture:?}: {short} of {} strands hang less than 10 cm below the band", cards.len());
+            let bend = decile(on_skull, 9).expect("points over the skull");
+            assert!(bend <= 0.035, "{texture:?}: nine in ten points over the skull within {bend:.4} dm of their neighbours' chord");
+        }
+    }
+
+    /// A bun sits on the crown, a little behind its top, where the strands meet: its ball
+    /// touches the hair gathered there and, seen from the camera's height in front, rises at
+    /// least 1.2 cm over the hair's outline (with the ball behind the head, the person seen
+    /// from the front had short hair). Every strand reaches it, and ends in it.
+    #[test]
+    fn a_bun_shows_over_the_crown_from_the_front() {
+        for (id, texture) in [("bf2", HairTexture::Coiled), ("mef2", HairTexture::Curly), ("wf1", HairTexture::Straight)] {
+            let (hair, shape, point) = gathered_hair(id, HairStyle::Bun, texture);
+            let bun = shape.bun.expect("a bun");
+            let centre = bun.centre(point);
+            assert!(hair.head.height(centre) <= bun.radius, "{id}: the ball's centre {:.3} dm off the skin", hair.head.height(centre));
+            let rows = hair.rows_per_card();
+            let scalp_cards = hair.rows.len() / rows - BUN_STRANDS as usize;
+            let scalp = &hair.rows[..scalp_cards * rows];
+            // Elevation seen from in front at the camera's height, scaled to a height at the
+            // ball's distance.
+            let distance = VIEW_FROM.z - centre.z;
+            let rise = |p: Vec3| (p.y - VIEW_FROM.y) / (VIEW_FROM.z - p.z) * distance;
+            let outline = scalp.iter().map(|row| rise(row.point)).fold(f32::MIN, f32::max);
+            let top = rise(centre) + bun.radius;
+            assert!(top - outline >= 0.12, "{id}: the bun rises {:.3} dm over the hair", top - outline);
+            let ends_far = scalp.chunks(rows).filter(|card| card[rows - 1].point.distance(point) > 0.01).count();
+            assert_eq!(ends_far, 0, "{id}: {ends_far} of {scalp_cards} strands end away from the bun");
+        }
     }
 
     #[test]

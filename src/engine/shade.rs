@@ -848,7 +848,7 @@ impl<'a> FaceShader<'a> {
         let pixel = self.pixel_width(f.position);
         let identity = self.identity;
         let mut painted = self.maps.at(f);
-        painted.hair = hairline_hairs(rest, painted.hair.max(self.under_hair(f)), identity.hair_texture, pixel);
+        painted.hair = hairline_hairs(rest, painted.hair.max(self.under_hair(f)), self.hairline_texture(), pixel);
         let lips = smoothstep(0.3, 0.7, painted.lips);
         let mouth = painted.inside_mouth;
 
@@ -1065,11 +1065,17 @@ impl<'a> FaceShader<'a> {
         colour
     }
 
-    /// Whether the person's hair is combed (straight or wavy: its cards on the scalp are lit
-    /// along the comb, [`super::hair::comb_at`]); curls and coils keep their own directions,
-    /// and the scalp between them stays lit as skin.
+    /// Whether the person's hair is combed ([`super::hair::lies_combed`]: its cards on the
+    /// scalp are lit along the comb, [`super::hair::comb_at`]); free curls and coils keep their
+    /// own directions, and the scalp between them stays lit as skin.
     fn combed(&self) -> bool {
-        matches!(self.identity.hair_texture, HairTexture::Straight | HairTexture::Wavy)
+        super::hair::lies_combed(self.identity)
+    }
+
+    /// The texture the hairline's strokes are drawn in: combed hair's (curls pulled taut
+    /// included) are long and straight, free curls' and coils' short.
+    fn hairline_texture(&self) -> HairTexture {
+        if self.combed() { HairTexture::Straight } else { self.identity.hair_texture }
     }
 
     /// The painted scalp `paint` at skin fragment `f` (rest position `rest`, reached by `reach`
