@@ -354,8 +354,8 @@ fn style_shape_uncurled(style: HairStyle, texture: HairTexture) -> StyleShape {
         HairStyle::Long => base(2.7, 2.5, 420.0, 20, 0.025, 0.05, 3.0),
         // On the crown, a little behind its top: seen from the front, the bun shows over the head.
         HairStyle::Bun => StyleShape { bun: Some(Bun { radius: 0.25 }), ..gathered(Vec3::new(0.0, 8.45, -0.08), 2.3, 14) },
-        // At the back of the head; the tail hangs to the shoulders' height.
-        HairStyle::Ponytail => gathered(Vec3::new(0.0, 7.8, -0.4), 3.0, 16),
+        // At the back of the head; the tail hangs to the nape, behind the skull from the front.
+        HairStyle::Ponytail => gathered(Vec3::new(0.0, 7.8, -0.4), 2.6, 12),
     }
 }
 
@@ -1641,6 +1641,12 @@ fn steer_to(point: Vec3, centre: Vec3, direction: Vec3, step: f32) -> Option<Vec
 const TAIL_GRAVITY: f32 = 3.0;
 const TAIL_HALF_WIDTH: f32 = 0.07;
 
+/// The share of a ponytail's strands drawn on as its tail; the others end at the band. The tail
+/// hangs behind the head and neck, all of its strands in a few tiles of the image: drawn with
+/// every strand (to the nape), it took 233 M of the 1,068 M instructions of a render of saf2,
+/// for pixels that do not show.
+const TAIL_SHARE: f32 = 0.3;
+
 /// The way a tail's strands leave the gathering point: down and a little back.
 const TAIL_START: Vec3 = Vec3::new(0.0, -0.958, -0.287);
 
@@ -1676,8 +1682,9 @@ fn grow(root: &Root, n: u32, identity: &Identity, shape: &StyleShape, head: &Hea
         if let (Some(point), None) = (gathering_point, gathered_at) {
             match steer_to(point, centre, direction, step) {
                 Some(steered) => direction = steered,
-                // A bun's strand ends in the ball (its remaining points collapse there).
-                None if shape.bun.is_some() => {
+                // A bun's strand ends in the ball (its remaining points collapse there), and so
+                // does a tail's, but for the share of them that draws the tail.
+                None if shape.bun.is_some() || hash01(n, 23, 0) >= TAIL_SHARE => {
                     points.resize(shape.segments + 1, point);
                     break;
                 }
@@ -1825,17 +1832,18 @@ mod tests {
     }
 
     /// A ponytail's strands, of every texture, all reach the gathering point (a hand's breadth
-    /// of strand from the hairline, over the skull) and hang from it as one bunch: within the
-    /// tail's width of the middle of the back (and a curl's turn and 2 mm more) above the neck,
-    /// behind it along the neck, nine in ten at least 10 cm below the band (the strands from the
-    /// hairline, which have come farthest, end sooner). Steered to a point that lay off the
-    /// skull beyond their reach, the strands circled over the back of the head: no tail at all;
-    /// turned back toward it from where they met it, the nape's strands rose over the crown and
-    /// hung down the forehead. Pulled to the band they lie taut: over the skull nine in ten of
-    /// their points lie within 3.5 mm of the chord between their neighbours, as straight hair's
-    /// do (3.2 mm; curls left free there, 8.8 mm).
+    /// of strand from the hairline, over the skull); [`TAIL_SHARE`] of them hang on from it as
+    /// one bunch: within the tail's width of the middle of the back (and a curl's turn and 2 mm
+    /// more) above the neck, behind it along the neck, nine in ten at least 5 cm below the band
+    /// (the strands from the hairline, which have come farthest, end sooner). Steered to a point
+    /// that lay off the skull beyond their reach, the strands circled over the back of the head:
+    /// no tail at all; turned back toward it from where they met it, the nape's strands rose over
+    /// the crown and hung down the forehead. Pulled to the band they lie taut: over the skull nine in ten of
+    /// their points lie within half a millimetre more of the chord between their neighbours than
+    /// straight hair's do (curls left free there lay 4.3 mm further off it).
     #[test]
     fn a_ponytail_hangs_from_where_its_strands_meet() {
+        let mut straight_bend = None;
         for texture in [HairTexture::Straight, HairTexture::Wavy, HairTexture::Curly, HairTexture::Coiled] {
             let (hair, shape, point) = gathered_hair("wf1", HairStyle::Ponytail, texture);
             let rows = hair.rows_per_card();
@@ -1843,7 +1851,7 @@ mod tests {
             let (curl_radius, _) = curl(texture);
             let mut on_skull = Vec::new();
             let mut failures = Vec::new();
-            let mut short = 0;
+            let (mut hanging, mut short) = (0, 0);
             for (n, card) in cards.iter().enumerate() {
                 // Where the strand comes nearest the gathering point: within a step of it.
                 let distances = card.iter().map(|row| row.point.distance(point));
@@ -1855,7 +1863,11 @@ mod tests {
                 on_skull.extend(card[..met.max(2)].windows(3).map(|w| w[1].point.distance((w[0].point + w[2].point) * 0.5)));
                 let tail = &card[met..];
                 let tip = tail[tail.len() - 1].point;
-                if tip.y > point.y - 1.0 {
+                if tip.distance(point) <= 0.01 {
+                    continue; // ends at the band
+                }
+                hanging += 1;
+                if tip.y > point.y - 0.5 {
                     short += 1;
                 }
                 // Above the neck, within the tail's width; along the neck, behind it.
@@ -1871,9 +1883,12 @@ mod tests {
                 }
             }
             assert!(failures.is_empty(), "{texture:?}: {} of {} cards fail:\n{}", failures.len(), cards.len(), failures[..failures.len().min(8)].join("\n"));
-            assert!(short * 10 <= cards.len(), "{texture:?}: {short} of {} strands hang less than 10 cm below the band", cards.len());
+            let share = hanging as f32 / cards.len() as f32;
+            assert!((TAIL_SHARE - 0.05..=TAIL_SHARE + 0.05).contains(&share), "{texture:?}: {hanging} of {} strands hang on", cards.len());
+            assert!(short * 10 <= hanging, "{texture:?}: {short} of {hanging} strands hang less than 5 cm below the band");
             let bend = decile(on_skull, 9).expect("points over the skull");
-            assert!(bend <= 0.035, "{texture:?}: nine in ten points over the skull within {bend:.4} dm of their neighbours' chord");
+            let straight = *straight_bend.get_or_insert(bend);
+            assert!(bend <= straight + 0.005, "{texture:?}: nine in ten points over the skull within {bend:.4} dm of their neighbours' chord (straight hair {straight:.4})");
         }
     }
 
