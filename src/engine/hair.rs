@@ -694,6 +694,8 @@ pub const FIBRES_PER_CARD: f32 = 24.0;
 struct Card {
     width: f32,
     tip_from: f32,
+    /// The share of its width a card has at its root, widening to all of it at its next row.
+    root: f32,
     on_head: bool,
     /// How the hair is combed (parting, gathering point): where a card lies on the scalp, it is
     /// lit along the comb direction there rather than along its own, so that neighbouring cards
@@ -710,6 +712,13 @@ impl Card {
         self.width * (1.0 - 0.2 * along) * (1.0 - 0.94 * smooth(self.tip_from, 1.0, along))
     }
 }
+
+/// The share of its width a lock of scalp hair (or a bun's strand) has at its root: a lock
+/// grows from many roots that fan out into it, so the card narrows toward the scalp. Cut
+/// square there, the roots of the locks along the hairline read as a row of blocks at 970×960
+/// (hair combed back or pulled to a bun). A beard's cards keep their width: they lie on the
+/// skin, over stubble painted under them.
+const SCALP_ROOT: f32 = 0.2;
 
 /// Where strand `n` starts narrowing to its tip (share of its length): each its own, so the
 /// tips of neighbouring strands do not line up.
@@ -909,7 +918,7 @@ impl HairModel {
         let combed = combed_lighting(identity, &shape);
         for (n, root) in roots.iter().enumerate() {
             let Some(points) = grow(root, n as u32, identity, &shape, &hair.head) else { continue };
-            let card = Card { width: shape.width * (0.7 + 0.6 * hash01(n as u32, 7, 1)), tip_from: tip_from(n as u32), on_head: true, combed };
+            let card = Card { width: shape.width * (0.7 + 0.6 * hash01(n as u32, 7, 1)), tip_from: tip_from(n as u32), root: SCALP_ROOT, on_head: true, combed };
             hair.add_card(&points, root.vertex, card, None);
             hair.strand_tone.push(lock_tone(root.rest, n as u32));
             hair.strand_grey.push(greying(identity.hair_grey, root.rest, n as u32));
@@ -951,7 +960,8 @@ impl HairModel {
                 Some(under) => Follow::Skin { corners: under[k].corners, weights: under[k].weights },
                 None => Follow::Root { vertex: root_vertex, share: (1.0 - t * 2.0).max(0.0) },
             };
-            let row = CardRow { point: p, half: card.half_width(along[k]), on_head: card.on_head, lies_on };
+            let half = card.half_width(along[k]) * if k == 0 { card.root } else { 1.0 };
+            let row = CardRow { point: p, half, on_head: card.on_head, lies_on };
             let across = self.across(row, tangent, VIEW_FROM);
             self.rows.push(row);
             let lit_along = self.lit_along(p, tangent, card.combed);
@@ -994,7 +1004,7 @@ impl HairModel {
                 }
                 None => {}
             }
-            let card = Card { width: beard::WIDTH * (0.7 + 0.6 * hash01(n, 7, 1)), tip_from: tip_from(n), on_head: true, combed: None };
+            let card = Card { width: beard::WIDTH * (0.7 + 0.6 * hash01(n, 7, 1)), tip_from: tip_from(n), root: 1.0, on_head: true, combed: None };
             self.add_card(&points, root.vertex, card, Some(&under));
             self.strand_tone.push(lock_tone(root.rest, n));
             self.strand_grey.push(greying(identity.hair_grey, root.rest, n));
@@ -1063,7 +1073,7 @@ impl HairModel {
                     ball + (u * a.cos() + v * a.sin()) * r
                 })
                 .collect();
-            self.add_card(&points, root_vertex, Card { width: shape.width * 1.2, tip_from: tip_from(n), on_head: false, combed: None }, None);
+            self.add_card(&points, root_vertex, Card { width: shape.width * 1.2, tip_from: tip_from(n), root: SCALP_ROOT, on_head: false, combed: None }, None);
             self.strand_tone.push(lock_tone(ball, n));
             self.strand_grey.push(greying(grey, ball, n));
         }
@@ -1918,6 +1928,37 @@ mod tests {
         }
     }
 
+    /// A lock of scalp hair narrows to its root (a fifth of its width there), so the locks
+    /// along a hairline do not end in a row of square blocks; a beard's cards, lying on the
+    /// skin, keep their width to the root. Against the card's widest row (narrower than its
+    /// width along the strand): every beard card's root at least 0.9 of it, every root of a
+    /// scalp card drawn to its fourth row at most 0.3 (cut square, about 1; a shorter one, as
+    /// cropped hair's three rows, narrows toward its tip from its second). Long straight hair,
+    /// a bun, and a bearded man's beard.
+    #[test]
+    fn scalp_locks_narrow_to_their_roots_and_beards_do_not() {
+        let model = FaceModel::embedded();
+        for id in ["wf1", "mef2", "mem2"] {
+            let (identity, posed) = neutral(id);
+            let hair = HairModel::new(model, &identity, &posed.neutral);
+            let (mut scalp, mut beard, mut most) = (0, 0, 0.0f32);
+            for card in hair.rows.chunks(hair.rows_per_card()) {
+                let ratio = card[0].half / card.iter().map(|row| row.half).fold(0.0, f32::max);
+                if card[0].lies_on.is_some() {
+                    beard += 1;
+                    assert!(ratio >= 0.9, "{id}: a beard card's root {ratio:.3} of its widest");
+                } else if card.len() >= 4 && card[2].point.distance(card[3].point) > 1e-6 {
+                    scalp += 1;
+                    most = most.max(ratio);
+                }
+            }
+            println!("{id}: {scalp} scalp cards drawn to their fourth row, roots at most {most:.3} of their widest; {beard} beard cards");
+            assert!(most <= 0.3, "{id}: a scalp card's root {most:.3} of its widest");
+            let enough = if id == "mem2" { beard >= 1000 } else { scalp >= 1000 };
+            assert!(enough, "{id}: {scalp} scalp cards, {beard} beard cards");
+        }
+    }
+
     #[test]
     fn hair_grows_outside_the_head_and_repeats_exactly() {
         let model = FaceModel::embedded();
@@ -2369,8 +2410,9 @@ mod tests {
         let cards: Vec<&[CardRow]> = hair.rows.chunks_exact(rows_per_card).collect();
         assert!(cards.len() > 1000, "{} cards", cards.len());
         for card in &cards {
-            let (root, tip) = (card[0].half, card[rows_per_card - 1].half);
-            assert!(tip < 0.1 * root, "a card ends {tip} wide, {root} at its root");
+            let widest = card.iter().map(|row| row.half).fold(0.0, f32::max);
+            let tip = card[rows_per_card - 1].half;
+            assert!(tip < 0.1 * widest, "a card ends {tip} wide, {widest} at its widest");
         }
         let starts: Vec<f32> = (0..200).map(tip_from).collect();
         let (low, high) = starts.iter().fold((1.0f32, 0.0f32), |(l, h), &t| (l.min(t), h.max(t)));

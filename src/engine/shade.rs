@@ -702,6 +702,11 @@ pub struct FaceShader<'a> {
     identity: &'a Identity,
     /// The person's hairline, worked out once (the painted scalp's parting reads it).
     hairline: Hairline,
+    /// Whether the person's hair lies combed ([`super::hair::lies_combed`]), worked out once.
+    combed: bool,
+    /// The pigment of the person's scalp hair, greyed as it is ([`hair_pigment`]), worked
+    /// out once: the painted scalp reads it on every fragment it covers.
+    scalp_pigment: Vec3,
     lighting: Lighting,
     backdrop_kind: Backdrop,
     /// The backdrop's colour on each image row, worked out once.
@@ -738,7 +743,8 @@ impl<'a> FaceShader<'a> {
         let (body, body_key_light, hair, hair_key_light) = (None, KeyLight::default(), None, KeyLight::default());
         let backdrop_kind = look.backdrop;
         let hairline = Hairline::of(identity);
-        FaceShader { maps, key_light, body, body_key_light, hair, hair_seen: &[], hair_key_light, shadow: None, relief, aged_relief, model, posed, identity, hairline, lighting, backdrop_kind, backdrop, eye, pixel_angle, skin_bounce: skin_bounce(identity.skin), lips_forward: lips_forward(model, posed) }
+        let (combed, scalp_pigment) = (super::hair::lies_combed(identity), hair_pigment(identity, identity.hair_grey));
+        FaceShader { maps, key_light, body, body_key_light, hair, hair_seen: &[], hair_key_light, shadow: None, relief, aged_relief, model, posed, identity, hairline, combed, scalp_pigment, lighting, backdrop_kind, backdrop, eye, pixel_angle, skin_bounce: skin_bounce(identity.skin), lips_forward: lips_forward(model, posed) }
     }
 
     /// Casts the key light's shadows from `shadow`, looked up once per vertex (offset along the
@@ -774,6 +780,17 @@ impl<'a> FaceShader<'a> {
                 (reach + (shadow.sharp(f.position + f.normal * NORMAL_OFFSET) - sharp) * (1.0 - soft)).clamp(0.0, 1.0)
             }
             _ => reach,
+        }
+    }
+
+    /// The key light reaching fragment `f`, looked up at the pixel on both maps, for parts
+    /// drawn with few triangles that shadows cross: interpolated from the corners of the
+    /// teeth's arch, the upper lip's soft shadow darkened one triangle of a tooth and not the
+    /// rest. The teeth take a few hundred fragments of a frame, so the lookups cost little.
+    fn key_reach_at_pixel(&self, f: &Fragment) -> f32 {
+        match self.shadow {
+            Some(shadow) => shadow.at_surface(f.position, f.normal, self.lighting.lights[0].direction).reach,
+            None => self.key_reach(f),
         }
     }
 
@@ -898,7 +915,7 @@ impl<'a> FaceShader<'a> {
         }
         let hair = painted.hair;
         // The painted scalp, worked out once: its albedo here, its lighting as hair below.
-        let scalp = (hair > 0.0).then(|| scalp_paint(identity, self.hairline, rest, pixel));
+        let scalp = (hair > 0.0).then(|| scalp_paint(identity, self.hairline, self.scalp_pigment, rest, pixel));
         if let Some(paint) = &scalp {
             albedo = albedo.lerp(paint.over(albedo), hair);
         }
@@ -1069,7 +1086,7 @@ impl<'a> FaceShader<'a> {
     /// scalp are lit along the comb, [`super::hair::comb_at`]); free curls and coils keep their
     /// own directions, and the scalp between them stays lit as skin.
     fn combed(&self) -> bool {
-        super::hair::lies_combed(self.identity)
+        self.combed
     }
 
     /// The texture the hairline's strokes are drawn in: combed hair's (curls pulled taut
@@ -1082,7 +1099,7 @@ impl<'a> FaceShader<'a> {
     /// of the key light) lit as hair combed along the scalp there, as the cards over it are: lit
     /// as skin it was darker and redder than they are, and showed between their ends in steps.
     fn scalp_lit_as_hair(&self, f: &Fragment, rest: Vec3, paint: &ScalpPaint, reach: f32) -> Vec3 {
-        let look = HairLook { albedo: paint.hair, pigment: hair_pigment(self.identity, self.identity.hair_grey), fibres: 0.92, streaks: paint.streaks, rooted: 0.9 };
+        let look = HairLook { albedo: paint.hair, pigment: self.scalp_pigment, fibres: 0.92, streaks: paint.streaks, rooted: 0.9 };
         let comb = super::hair::comb_at(self.identity, rest);
         let tangent = (comb - f.normal * comb.dot(f.normal)).normalize_or(comb);
         self.lit_hair(&look, tangent, f.view_dir, reach)
@@ -1224,7 +1241,7 @@ impl<'a> FaceShader<'a> {
     /// front of a smile the teeth are about as bright as the lit skin, not grey.
     fn shade_teeth(&self, f: &Fragment, row: &TeethRow) -> Vec3 {
         let rest = self.rest(f);
-        let reach = 0.45 + 0.55 * self.key_reach(f);
+        let reach = 0.45 + 0.55 * self.key_reach_at_pixel(f);
         let surface = Surface { wrap: 0.2, specular: 0.5, shininess: 40.0, open: 1.0, tissue: true, bounce: Vec3::ONE };
         // The arch is a few flat facets: its normals turn half toward the viewer, so that a
         // tooth reads as one rounded surface, not as a lit and a dark facet. Each tooth's face
@@ -1631,14 +1648,15 @@ fn hairline_hairs(rest: Vec3, cover: f32, texture: HairTexture, pixel: f32) -> f
     // The hairs lean out from the middle of the forehead, down and back at the temples, each
     // lock a little its own way: the strokes are sheared by that lean about the hairline.
     let lean = HAIRLINE_FAN * (around / HAIRLINE_FAN_REACH).clamp(-1.0, 1.0) + HAIRLINE_WAVE * (2.0 * value_noise(Vec3::new(around * 12.0, 1.5, 7.5)) - 1.0);
-    let across = (around + lean * (rest.y - super::hair::scalp_line(rest))) * HAIRLINE_STROKES_ACROSS;
+    let HairlineStrokes { across: across_cells, along, contrast } = hairline_strokes(texture);
+    let across = (around + lean * (rest.y - super::hair::scalp_line(rest))) * across_cells;
     // Each few hairs start and end at heights of their own: strokes on the noise's lattice rows
     // alone all end on the same lines, a comb's teeth across the forehead.
     let stagger = 1.5 * value_noise(Vec3::new(across * 0.37, 3.5, 5.5));
-    let at = Vec3::new(across, rest.y * hairline_stroke_cells(texture) + stagger, 11.5);
-    let strokes = seen_over(value_noise(at), HAIRLINE_STROKES_ACROSS * pixel);
+    let at = Vec3::new(across, rest.y * along + stagger, 11.5);
+    let strokes = seen_over(value_noise(at), across_cells * pixel);
     let thinning = 4.0 * cover * (1.0 - cover);
-    (cover + HAIRLINE_CONTRAST * thinning * (strokes - 0.5)).clamp(0.0, 1.0)
+    (cover + contrast * thinning * (strokes - 0.5)).clamp(0.0, 1.0)
 }
 
 /// How far (radians, about) the hairline's hairs lean out from upright at the temples and
@@ -1648,22 +1666,27 @@ const HAIRLINE_FAN: f32 = 0.45;
 const HAIRLINE_FAN_REACH: f32 = 0.6;
 const HAIRLINE_WAVE: f32 = 0.12;
 
-/// Cells of the hairline's hair strokes across the hairs (which grow up out of the forehead
-/// and temples), per decimetre: hairs about 0.4 mm apart.
-const HAIRLINE_STROKES_ACROSS: f32 = 250.0;
-
-/// Cells of the hairline's strokes along the hairs, per decimetre: 7 mm long straight or wavy,
-/// 2 mm curled, 0.6 mm coiled (as long as they are wide: specks).
-fn hairline_stroke_cells(texture: HairTexture) -> f32 {
-    match texture {
-        HairTexture::Straight | HairTexture::Wavy => 15.0,
-        HairTexture::Curly => 50.0,
-        HairTexture::Coiled => 160.0,
-    }
+/// The hairline's hair strokes in one texture: cells per decimetre across the hairs (which grow
+/// up out of the forehead and temples) and along them, and how far a stroke moves the cover
+/// from its mean where the cover is one half.
+struct HairlineStrokes {
+    across: f32,
+    along: f32,
+    contrast: f32,
 }
 
-/// How far a stroke moves the cover from its mean where the cover is one half.
-const HAIRLINE_CONTRAST: f32 = 1.6;
+/// Straight and wavy hairs about 0.25 mm apart and 4 mm long, soft: the fine hairs of a
+/// hairline (0.4 mm apart, 7 mm long and at 1.6 times the contrast, at 970×960 they read as a
+/// band of bristles hanging from the hair); curled ones 0.4 mm apart and 2 mm long, coiled ones
+/// specks 0.4 by 0.6 mm, at the contrast that keeps them distinct (finer, a pixel at 970×960
+/// sees them as a haze).
+fn hairline_strokes(texture: HairTexture) -> HairlineStrokes {
+    match texture {
+        HairTexture::Straight | HairTexture::Wavy => HairlineStrokes { across: 400.0, along: 24.0, contrast: 1.2 },
+        HairTexture::Curly => HairlineStrokes { across: 250.0, along: 50.0, contrast: 1.6 },
+        HairTexture::Coiled => HairlineStrokes { across: 250.0, along: 160.0, contrast: 1.6 },
+    }
+}
 
 /// Scalp hair (painted under the hair cards): see [`Hairline`].
 fn hair_mask(rest: Vec3, hairline: Hairline) -> f32 {
@@ -1816,8 +1839,9 @@ const PARTING_WANDER: f32 = 0.004;
 /// How much of a parting the hairs crossing it hide where they cross.
 const PARTING_CROSSED: f32 = 0.45;
 
-/// The painted scalp at `rest` of `identity`, whose hairline is `hairline`.
-fn scalp_paint(identity: &Identity, hairline: Hairline, rest: Vec3, pixel: f32) -> ScalpPaint {
+/// The painted scalp at `rest` of `identity`, whose hairline is `hairline` and whose scalp
+/// hair's pigment is `pigment` ([`hair_pigment`] at the person's greying).
+fn scalp_paint(identity: &Identity, hairline: Hairline, pigment: Vec3, rest: Vec3, pixel: f32) -> ScalpPaint {
     let parting = super::hair::parting_x(identity.parting);
     // How far the hair over this point is combed sideways (from the parting) rather than back.
     let sideways = if parting.is_some() { smoothstep(0.0, 0.7, rest.z) } else { 0.0 };
@@ -1826,7 +1850,7 @@ fn scalp_paint(identity: &Identity, hairline: Hairline, rest: Vec3, pixel: f32) 
     let q = rest * cells;
     // The streaks run along the comb, and a pixel spans most of them across it.
     let spanned = cells.max_element() * pixel;
-    let hair = hair_pigment(identity, identity.hair_grey) * (0.63 + 0.35 * seen_over(value_noise(q), spanned));
+    let hair = pigment * (0.63 + 0.35 * seen_over(value_noise(q), spanned));
     let streaks = 0.35 + 1.3 * seen_over(value_noise(q * 0.7 + Vec3::splat(7.0)), 0.7 * spanned);
     let curled = matches!(identity.hair_texture, HairTexture::Curly | HairTexture::Coiled);
     let parting = parting.filter(|_| !curled).map_or(0.0, |x| parting_shown(x, hairline, rest, pixel));
@@ -2606,6 +2630,48 @@ mod tests {
         }
     }
 
+    /// The teeth take the key light at the pixel, not from the corners of the arch: its few
+    /// triangles are large against the upper lip's soft shadow, and interpolated from their
+    /// corners, a corner in the shadow darkened a triangle of a tooth and not the rest of it
+    /// (wm1's 6+12+25 at 970×960). On the upper teeth of wm1's broad smile, lit by the key
+    /// light past the head's own skin and teeth, a fragment is shaded the same whatever light
+    /// its corners got (with the corners' light it failed); the light there varies, so the
+    /// lookup matters: at most 0.6 in the lip's shadow, at least 0.9 in the open (0 and 1).
+    #[test]
+    fn the_teeth_are_lit_at_the_pixel_not_from_the_arch_corners() {
+        let model = FaceModel::embedded();
+        let identity = crate::engine::identity::IdentityTable::built_in().get("wm1").unwrap();
+        let expression = crate::facs::Catalog::built_in().parse("6+12+25").unwrap();
+        let posed = crate::engine::pose_expression(&expression, identity).unwrap();
+        let camera = crate::engine::portrait_camera(posed.anchor, 485, 480);
+        let look = Look::default();
+        let lighting = look.light.lighting();
+        let key = lighting.lights[0].direction;
+        let parts = [Part::Skin, Part::TeethUpper];
+        let scene: Vec<Triangles> = parts.iter().map(|&part| Triangles { positions: &posed.positions, normals: &posed.normals, uvs: &[], indices: model.casting_triangles(part), part: part.id(), two_sided: false }).collect();
+        let map = ShadowMap::new(&scene, key, lighting.key_size, posed.anchor, 1024, Some(1));
+        let mut shader = FaceShader::new(model, &posed, identity, &look, &camera).with_shadows(&map);
+        let fragments: Vec<Fragment> = model.part(Part::TeethUpper).triangles.iter().enumerate().flat_map(|(i, &vertex)| {
+            let corners = vertex.map(|v| posed.positions[v as usize]);
+            let normals = vertex.map(|v| posed.normals[v as usize]);
+            [Vec3::splat(1.0 / 3.0), Vec3::new(0.6, 0.2, 0.2), Vec3::new(0.2, 0.6, 0.2), Vec3::new(0.2, 0.2, 0.6)].map(|w| {
+                let position = corners[0] * w.x + corners[1] * w.y + corners[2] * w.z;
+                let normal = (normals[0] * w.x + normals[1] * w.y + normals[2] * w.z).normalize();
+                let view_dir = (camera.eye - position).normalize();
+                Fragment { position, normal, uv: Vec2::ZERO, part: Part::TeethUpper.id(), triangle: i as u32, vertex, barycentric: w, view_dir, pixel: (0, 0) }
+            })
+        }).filter(|f| f.normal.dot(f.view_dir) > 0.3).collect();
+        let reaches: Vec<f32> = fragments.iter().map(|f| shader.key_reach_at_pixel(f)).collect();
+        let (least, most) = reaches.iter().fold((f32::MAX, f32::MIN), |(l, m), &r| (l.min(r), m.max(r)));
+        assert!(least <= 0.6 && most >= 0.9, "the key light on the teeth from {least:.3} to {most:.3}");
+        let shaded = |shader: &FaceShader| fragments.iter().map(|f| shader.shade_teeth(f, &UPPER_TEETH)).collect::<Vec<_>>();
+        let before = shaded(&shader);
+        for v in model.part(Part::TeethUpper).vertices.clone() {
+            (shader.key_light.reach[v as usize], shader.key_light.edge[v as usize]) = (0.0, [0.0, 0.0]);
+        }
+        assert_eq!(shaded(&shader), before, "the teeth's shading read the light at the arch's corners");
+    }
+
     /// The light left in a cast shadow on the skin has the skin's hue at the luminance of white
     /// (under the cool fill a shadow on the nose's side read as a grey patch): the same ratios
     /// of red to green to blue as the skin, luminance 1; white for a grey skin; and the floor
@@ -2642,13 +2708,13 @@ mod tests {
         let top = Vec3::new(0.4, 8.3, 0.6);
         let skin = Vec3::new(0.8, 0.6, 0.5);
         let luma = |c: Vec3| c.dot(Vec3::splat(1.0 / 3.0));
-        assert!(luma(scalp_paint(&grey, Hairline::of(&grey), top, 0.0).over(skin)) > 0.5 * luma(hair_pigment(&grey, grey.hair_grey)));
+        assert!(luma(scalp_paint(&grey, Hairline::of(&grey), hair_pigment(&grey, grey.hair_grey), top, 0.0).over(skin)) > 0.5 * luma(hair_pigment(&grey, grey.hair_grey)));
         assert!(luma(hair_pigment(&grey, grey.hair_grey)) > 1.3 * luma(grey.hair));
         let mut straight = table.get("wf1").unwrap().clone();
         // Along 2 cm of the parting (wf1 parts in the middle) and 1.8 mm beside it.
         let along: Vec<Vec3> = (0..80).map(|k| Vec3::new(0.0, 8.3, 0.7 + 0.0025 * k as f32)).collect();
         let beside = Vec3::X * 3.0 * crate::engine::hair::PARTING_HALF_WIDTH;
-        let paint = |identity: &Identity, at: Vec3| scalp_paint(identity, Hairline::of(identity), at, 0.0);
+        let paint = |identity: &Identity, at: Vec3| scalp_paint(identity, Hairline::of(identity), hair_pigment(identity, identity.hair_grey), at, 0.0);
         let from_scalp = |identity: &Identity, shift: Vec3| {
             along.iter().map(|&at| paint(identity, at + shift).over(skin).distance(skin * PARTING_SKIN)).sum::<f32>() / along.len() as f32
         };
@@ -2807,7 +2873,7 @@ mod tests {
             let mean = values.iter().sum::<f32>() / columns as f32;
             (values.iter().map(|v| (v - mean).powi(2)).sum::<f32>() / columns as f32).sqrt()
         };
-        let cell = 1.0 / hairline_stroke_cells(HairTexture::Straight);
+        let cell = 1.0 / hairline_strokes(HairTexture::Straight).along;
         let spreads: Vec<f32> = (0..16).map(|k| spread_at(8.0 + cell * k as f32 / 16.0)).collect();
         let (low, high) = spreads.iter().fold((f32::MAX, f32::MIN), |(l, h), &s| (l.min(s), h.max(s)));
         println!("spreads {low:.4} {high:.4} ratio {:.3}", high / low);
