@@ -702,7 +702,9 @@ pub struct FaceShader<'a> {
     identity: &'a Identity,
     /// The person's hairline, worked out once (the painted scalp's parting reads it).
     hairline: Hairline,
-    /// Whether the person's hair lies combed ([`super::hair::lies_combed`]), worked out once.
+    /// Whether the person's hair lies combed ([`super::hair::lies_combed`]: its cards on the
+    /// scalp are lit along the comb, [`super::hair::comb_at`]), worked out once; free curls
+    /// and coils keep their own directions, and the scalp between them stays lit as skin.
     combed: bool,
     /// The pigment of the person's scalp hair, greyed as it is ([`hair_pigment`]), worked
     /// out once: the painted scalp reads it on every fragment it covers.
@@ -946,7 +948,7 @@ impl<'a> FaceShader<'a> {
         let surface = Surface { wrap: 0.35 * (1.0 - hair), specular, shininess, open, tissue: true, bounce: self.skin_bounce };
         let mut colour = self.lit_reached(f, normal, albedo, surface, reach);
         colour += self.subsurface_bleed(normal, albedo, reach) * (1.0 - hair);
-        if let Some(paint) = scalp.filter(|_| hair > 0.85 && self.hair.is_some() && self.combed()) {
+        if let Some(paint) = scalp.filter(|_| hair > 0.85 && self.hair.is_some() && self.combed) {
             let as_hair = self.scalp_lit_as_hair(f, rest, &paint, reach);
             // Only where the hair is whole: its soft fringe over the skin stays lit as skin (lit
             // as hair, it was a pale haze over the forehead).
@@ -1082,17 +1084,10 @@ impl<'a> FaceShader<'a> {
         colour
     }
 
-    /// Whether the person's hair is combed ([`super::hair::lies_combed`]: its cards on the
-    /// scalp are lit along the comb, [`super::hair::comb_at`]); free curls and coils keep their
-    /// own directions, and the scalp between them stays lit as skin.
-    fn combed(&self) -> bool {
-        self.combed
-    }
-
     /// The texture the hairline's strokes are drawn in: combed hair's (curls pulled taut
     /// included) are long and straight, free curls' and coils' short.
     fn hairline_texture(&self) -> HairTexture {
-        if self.combed() { HairTexture::Straight } else { self.identity.hair_texture }
+        if self.combed { HairTexture::Straight } else { self.identity.hair_texture }
     }
 
     /// The painted scalp `paint` at skin fragment `f` (rest position `rest`, reached by `reach`
