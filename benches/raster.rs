@@ -34,6 +34,7 @@ fn cpu_time_report() {
         indices: &mesh.indices,
         part: 0,
         two_sided: false,
+        coverage: &[],
     }];
     let camera = camera();
     println!("{} triangles, {}x{}", mesh.indices.len(), camera.width, camera.height);
@@ -129,6 +130,7 @@ fn bench_render(bencher: Bencher, spp: u32, threads: Option<usize>) {
         indices: &mesh.indices,
         part: 0,
         two_sided: false,
+        coverage: &[],
     }];
     let camera = camera();
     let options = RenderOptions { samples_per_pixel: samples(spp), threads, backface_culling: true, shade_per_surface: false };
@@ -148,7 +150,7 @@ fn render_all_threads(bencher: Bencher, spp: u32) {
 #[divan::bench(args = [16])]
 fn visibility_one_thread(bencher: Bencher, spp: u32) {
     let mesh = sphere(64, 63);
-    let scene = [Triangles { positions: &mesh.positions, normals: &[], uvs: &[], indices: &mesh.indices, part: 0, two_sided: false }];
+    let scene = [Triangles { positions: &mesh.positions, normals: &[], uvs: &[], indices: &mesh.indices, part: 0, two_sided: false, coverage: &[] }];
     let camera = camera();
     let options = RenderOptions { samples_per_pixel: samples(spp), threads: Some(1), backface_culling: true, shade_per_surface: false };
     bencher.bench(|| visibility(divan::black_box(&scene), &camera, &options));
@@ -164,6 +166,7 @@ fn encode_png(bencher: Bencher) {
         indices: &mesh.indices,
         part: 0,
         two_sided: false,
+        coverage: &[],
     }];
     let image = render(&scene, &camera(), &Lambert, &RenderOptions::default());
     bencher.bench(|| divan::black_box(&image).encode_png());

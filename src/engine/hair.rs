@@ -25,7 +25,9 @@
 //! it falls straight down from the widest point above it), a bound that narrows to nothing
 //! behind the ears, so the hair there falls between the hair beside the face and the hair down
 //! the back. Hanging hair is cut to a line (strands rooted low at the back and sides grow
-//! longer) and fans out over the back below the ears, so it fills the space beside the neck.
+//! longer) and fans out over the back below the ears, so it fills the space beside the neck. Each
+//! of its cards thins out toward its end fibre by fibre ([`HairModel::coverage`], drawn by the
+//! rasteriser's [`Coverage`]): a lock's end is a few hairs, each ending at its own point.
 //!
 //! A beard ([`beard`], when the identity has one) is grown after the scalp's cards, as cards
 //! of the same number of rows that lie along the face's skin and move with it.
@@ -43,6 +45,7 @@ use std::sync::{Arc, Mutex, OnceLock};
 use glam::{Mat3, Vec2, Vec3};
 
 use super::asset::{FaceModel, Part};
+use super::raster::Coverage;
 use super::identity::{HairStyle, HairTexture, Identity, Parting};
 use super::pose::Posed;
 
@@ -68,6 +71,11 @@ pub struct HairModel {
     pub tangents: Vec<Vec3>,
     /// `x` across the card (0..1), `y` along the strand (0 at the root, 1 at the tip).
     pub uvs: Vec<Vec2>,
+    /// Per vertex: the share of the card's fibres there (1 but toward the tips of hanging
+    /// hair; see [`Card::cover`]) and where it lies across them ([`FIBRES_PER_CARD`] to a
+    /// card, numbered on from one strand to the next); empty when no card thins out (the
+    /// rasteriser then draws the cards opaque without looking).
+    pub coverage: Vec<Coverage>,
     pub triangles: Vec<[u32; 3]>,
     /// Per strand: brightness factor, and the share of its fibres that are white (see
     /// [`HairModel::fibre_grey`]).
@@ -159,6 +167,9 @@ struct StyleShape {
     /// ears and at the nape: hair standing out from the head (an afro) is cut shorter from the
     /// temples down, as a barber tapers it (1: not cut).
     nape_kept: f32,
+    /// The share of its fibres a strand's card has at its very tip (1: whole to the end; see
+    /// [`Card::cover`]).
+    tip_cover: f32,
 }
 
 /// A bun: a ball of strands wound round (radius in decimetres), sitting on the head where the
@@ -317,7 +328,10 @@ fn style_shape(style: HairStyle, texture: HairTexture) -> StyleShape {
     // drawn smooth to its bun or tail.
     let curled = matches!(texture, HairTexture::Curly | HairTexture::Coiled);
     let most = if curled && shape.gather.is_none() { 3 } else { 2 } * shape.segments;
-    StyleShape { segments: wanted.clamp(shape.segments, most), width: shape.width * narrower, density: shape.density * denser, ..shape }
+    // Curls' ends turn within a curl and are seen against the hair around them; thinned,
+    // hanging curls (already thin at the outline) would read as a haze.
+    let tip_cover = if curled { 1.0 } else { shape.tip_cover };
+    StyleShape { segments: wanted.clamp(shape.segments, most), width: shape.width * narrower, density: shape.density * denser, tip_cover, ..shape }
 }
 
 fn style_shape_uncurled(style: HairStyle, texture: HairTexture) -> StyleShape {
@@ -335,6 +349,7 @@ fn style_shape_uncurled(style: HairStyle, texture: HairTexture) -> StyleShape {
         bun: None,
         curl_kept: 1.0,
         nape_kept: 1.0,
+        tip_cover: 1.0,
     };
     // Hair pulled back to a bun or a tail: drawn close onto the skull, taut, its strands long
     // enough to reach the gathering point from the hairline and from the nape.
@@ -349,9 +364,9 @@ fn style_shape_uncurled(style: HairStyle, texture: HairTexture) -> StyleShape {
         HairStyle::Short if coiled => base(0.12, 0.1, 1200.0, 8, 0.014, 0.6, 0.0),
         HairStyle::Short => base(0.32, 0.16, 450.0, 7, 0.02, 0.06, 1.0),
         HairStyle::Medium if coiled => StyleShape { nape_kept: 0.2, ..base(0.38, 0.34, 1000.0, 14, 0.016, 0.7, 0.3) },
-        HairStyle::Medium => base(1.0, 0.9, 380.0, 12, 0.025, 0.05, 2.5),
-        HairStyle::Shoulder => base(1.75, 1.6, 420.0, 16, 0.025, 0.05, 3.0),
-        HairStyle::Long => base(2.7, 2.5, 420.0, 20, 0.025, 0.05, 3.0),
+        HairStyle::Medium => StyleShape { tip_cover: HANGING_TIP_COVER, ..base(1.0, 0.9, 380.0, 12, 0.025, 0.05, 2.5) },
+        HairStyle::Shoulder => StyleShape { tip_cover: HANGING_TIP_COVER, ..base(1.75, 1.6, 420.0, 16, 0.025, 0.05, 3.0) },
+        HairStyle::Long => StyleShape { tip_cover: HANGING_TIP_COVER, ..base(2.7, 2.5, 420.0, 20, 0.025, 0.05, 3.0) },
         // On the crown, a little behind its top: seen from the front, the bun shows over the head.
         HairStyle::Bun => StyleShape { bun: Some(Bun { radius: 0.25 }), ..gathered(Vec3::new(0.0, 8.45, -0.08), 2.3, 14) },
         // At the back of the head; the tail hangs to the nape, behind the skull from the front.
@@ -694,6 +709,8 @@ pub const FIBRES_PER_CARD: f32 = 24.0;
 struct Card {
     width: f32,
     tip_from: f32,
+    /// The share of its fibres the card has at its tip ([`Card::cover`]).
+    tip_cover: f32,
     /// The share of its width a card has at its root, widening to all of it at its next row.
     root: f32,
     on_head: bool,
@@ -711,7 +728,19 @@ impl Card {
     fn half_width(&self, along: f32) -> f32 {
         self.width * (1.0 - 0.2 * along) * (1.0 - 0.94 * smooth(self.tip_from, 1.0, along))
     }
+
+    /// The share of its fibres the card has at `along` (as for [`Card::half_width`]): all of
+    /// them to where it starts narrowing, then fewer toward the tip, down to `tip_cover` (each
+    /// fibre ends at its own point; [`Coverage`]). A lock's end is a few hairs, not a narrower
+    /// sheet: drawn whole to its point, the ends of hanging hair read as pointed blades.
+    fn cover(&self, along: f32) -> f32 {
+        1.0 - (1.0 - self.tip_cover) * smooth(self.tip_from, 1.0, along)
+    }
 }
+
+/// [`StyleShape::tip_cover`] of straight and wavy hair that hangs (medium, shoulder-length and
+/// long): the last hairs of a lock are a fifth as dense as its body.
+const HANGING_TIP_COVER: f32 = 0.2;
 
 /// The share of its width a lock of scalp hair (or a bun's strand) has at its root: a lock
 /// grows from many roots that fan out into it, so the card narrows toward the scalp. Cut
@@ -903,6 +932,7 @@ impl HairModel {
             positions: Vec::new(),
             tangents: Vec::new(),
             uvs: Vec::new(),
+            coverage: Vec::new(),
             triangles: Vec::new(),
             strand_tone: Vec::new(),
             strand_grey: Vec::new(),
@@ -918,7 +948,8 @@ impl HairModel {
         let combed = combed_lighting(identity, &shape);
         for (n, root) in roots.iter().enumerate() {
             let Some(points) = grow(root, n as u32, identity, &shape, &hair.head) else { continue };
-            let card = Card { width: shape.width * (0.7 + 0.6 * hash01(n as u32, 7, 1)), tip_from: tip_from(n as u32), root: SCALP_ROOT, on_head: true, combed };
+            let (width, tip_cover) = (shape.width * (0.7 + 0.6 * hash01(n as u32, 7, 1)), shape.tip_cover);
+            let card = Card { width, tip_from: tip_from(n as u32), tip_cover, root: SCALP_ROOT, on_head: true, combed };
             hair.add_card(&points, root.vertex, card, None);
             hair.strand_tone.push(lock_tone(root.rest, n as u32));
             hair.strand_grey.push(greying(identity.hair_grey, root.rest, n as u32));
@@ -930,6 +961,9 @@ impl HairModel {
         hair.add_beard(model, identity, &aligned, &normals[..skin_end]);
         hair.skin_cover = skin_under_cards(&hair.rows, hair.rows_per_card(), &aligned, &ears, &hair.head);
         hair.skin_open = skin_open_under_cards(&hair.rows, hair.rows_per_card(), &aligned, &normals);
+        if hair.coverage.iter().all(|c| c.share >= 1.0) {
+            hair.coverage = Vec::new();
+        }
         for p in &mut hair.positions {
             *p += offset;
         }
@@ -944,6 +978,7 @@ impl HairModel {
     /// under it.
     fn add_card(&mut self, points: &[Vec3], root_vertex: u32, card: Card, skin: Option<&[beard::Under]>) {
         let base = self.positions.len() as u32;
+        let strand = (self.triangles.len() as u32 / self.triangles_per_strand.max(1)) as f32;
         let last = points.len() - 1;
         let along = drawn_share(points);
         let mut previous = Vec3::NEG_Y;
@@ -969,6 +1004,7 @@ impl HairModel {
                 self.positions.push(p + across * s);
                 self.tangents.push(lit_along);
                 self.uvs.push(Vec2::new(u, along[k]));
+                self.coverage.push(Coverage { share: card.cover(along[k]), fibre: (strand + u) * FIBRES_PER_CARD });
                 self.follows.push(follow);
             }
         }
@@ -1004,7 +1040,7 @@ impl HairModel {
                 }
                 None => {}
             }
-            let card = Card { width: beard::WIDTH * (0.7 + 0.6 * hash01(n, 7, 1)), tip_from: tip_from(n), root: 1.0, on_head: true, combed: None };
+            let card = Card { width: beard::WIDTH * (0.7 + 0.6 * hash01(n, 7, 1)), tip_from: tip_from(n), tip_cover: 1.0, root: 1.0, on_head: true, combed: None };
             self.add_card(&points, root.vertex, card, Some(&under));
             self.strand_tone.push(lock_tone(root.rest, n));
             self.strand_grey.push(greying(identity.hair_grey, root.rest, n));
@@ -1073,7 +1109,8 @@ impl HairModel {
                     ball + (u * a.cos() + v * a.sin()) * r
                 })
                 .collect();
-            self.add_card(&points, root_vertex, Card { width: shape.width * 1.2, tip_from: tip_from(n), root: SCALP_ROOT, on_head: false, combed: None }, None);
+            let card = Card { width: shape.width * 1.2, tip_from: tip_from(n), tip_cover: 1.0, root: SCALP_ROOT, on_head: false, combed: None };
+            self.add_card(&points, root_vertex, card, None);
             self.strand_tone.push(lock_tone(ball, n));
             self.strand_grey.push(greying(grey, ball, n));
         }
@@ -1956,6 +1993,38 @@ mod tests {
             assert!(most <= 0.3, "{id}: a scalp card's root {most:.3} of its widest");
             let enough = if id == "mem2" { beard >= 1000 } else { scalp >= 1000 };
             assert!(enough, "{id}: {scalp} scalp cards, {beard} beard cards");
+        }
+    }
+
+    #[test]
+    fn hanging_hair_thins_toward_its_tips_fibre_by_fibre_and_other_hair_does_not() {
+        let model = FaceModel::embedded();
+        // wf1 shoulder-length and wf2 medium wavy hair hang; wm1's short, bf1's coiled and
+        // mem2's beard do not thin.
+        for (id, thins) in [("wf1", true), ("wf2", true), ("wm1", false), ("bf1", false), ("mem2", false)] {
+            let (identity, posed) = neutral(id);
+            let hair = HairModel::new(model, &identity, &posed.neutral);
+            let (mut least, mut thinning) = (1.0f32, 0);
+            for (n, card) in hair.coverage.chunks(2 * hair.rows_per_card()).enumerate() {
+                // Each card's fibres are numbered on from the card's before it.
+                for side in card.chunks(2) {
+                    assert_eq!(side[0].share, side[1].share, "{id}: card {n}");
+                    assert_eq!([side[0].fibre, side[1].fibre], [n as f32, n as f32 + 1.0].map(|k| k * FIBRES_PER_CARD), "{id}: card {n}");
+                }
+                let shares: Vec<f32> = card.iter().step_by(2).map(|c| c.share).collect();
+                assert_eq!(shares[0], 1.0, "{id}: card {n} is whole at its root");
+                assert!(shares.windows(2).all(|w| w[1] <= w[0]), "{id}: card {n} thickens toward its tip: {shares:?}");
+                let tip = shares[shares.len() - 1];
+                least = least.min(tip);
+                thinning += usize::from(tip < 1.0);
+            }
+            println!("{id}: {thinning} cards thin out, to {least:.3} of their fibres");
+            if thins {
+                assert!((least - HANGING_TIP_COVER).abs() < 1e-6 && thinning >= 1000, "{id}: {thinning} cards thin, to {least}");
+                assert_eq!(hair.coverage.len(), hair.positions.len(), "{id}");
+            } else {
+                assert!(hair.coverage.is_empty(), "{id}: hair that does not thin is drawn opaque without a coverage");
+            }
         }
     }
 

@@ -193,10 +193,11 @@ impl Scene {
                 indices: &self.model.part(part).triangles,
                 part: part.id(),
                 two_sided: part.is_thin(),
+                coverage: &[],
             })
             .collect();
         let body = &self.body;
-        items.push(Triangles { positions: &body.positions, normals: &body.normals, uvs: &[], indices: &body.triangles, part: BODY_PART, two_sided: false });
+        items.push(Triangles { positions: &body.positions, normals: &body.normals, uvs: &[], indices: &body.triangles, part: BODY_PART, two_sided: false, coverage: &[] });
         let hair = &self.hair;
         // Hair cards carry the strand direction where other items carry normals.
         items.push(Triangles {
@@ -206,6 +207,7 @@ impl Scene {
             indices: hair_triangles,
             part: HAIR_PART,
             two_sided: true,
+            coverage: &hair.model.coverage,
         });
         items
     }

@@ -14,7 +14,9 @@
 //!    triangles belongs to exactly one of them, whatever the submission order. Each row of a
 //!    triangle's box is walked from where its rising edges first pass to the end of the run of
 //!    passing pixels; with four samples per pixel on x86-64 the samples are tested side by side
-//!    (SSE2), with the same integer and floating-point operations as one at a time.
+//!    (SSE2), with the same integer and floating-point operations as one at a time. A triangle
+//!    of a surface that thins out into fibres ([`Coverage`]) passes only the samples whose
+//!    fibre is there, so what lies behind shows between its fibres.
 //! 3. **Resolve** (same task): per pixel the covered samples are grouped by triangle (or, with
 //!    [`RenderOptions::shade_per_surface`], by continuous surface); each group is shaded
 //!    once, at the centroid of its covered samples, with
@@ -65,6 +67,24 @@ pub struct Triangles<'a> {
     /// Drawn from both sides even with [`RenderOptions::backface_culling`] (thin sheets and open
     /// shells, whose back may be in view).
     pub two_sided: bool,
+    /// Per vertex, how much of a surface made of fibres is there ([`Coverage`]), as for
+    /// `positions`, or empty (opaque throughout): where it thins out, as at the end of a lock
+    /// of hair, what lies behind shows between its fibres.
+    pub coverage: &'a [Coverage],
+}
+
+/// How much of a surface made of fibres lies at a vertex. A sample on fibre `k` (the integer
+/// part of `fibre` there) is covered where `share` (at the pixel's centre) is over the
+/// fibre's threshold, a hash of `k` and the scene item in 0..1: so where the share falls along
+/// the fibres, they end one by one, each at its own point, and where it is constant a share of
+/// that size of them is drawn. Fibres are as wide as `fibre` makes them (a pixel may hold
+/// several, each sample on one).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Coverage {
+    /// The share of the fibres present: 1 (or more) opaque, 0 (or less) none.
+    pub share: f32,
+    /// Where the vertex lies across the fibres, counted in fibres.
+    pub fibre: f32,
 }
 
 /// What the shader sees for one (pixel, triangle) pair.
@@ -310,6 +330,69 @@ struct RasterTri {
     zy: f32,
     ox: f32,
     oy: f32,
+    /// Index of its [`Fade`] in [`Setup::fade`], or [`OPAQUE`].
+    fade: u32,
+}
+
+/// [`RasterTri::fade`] of a triangle that covers every sample it passes over.
+const OPAQUE: u32 = u32::MAX;
+
+/// How a triangle with a corner's [`Coverage::share`] under 1 thins out, as planes over the
+/// image in pixel units from the triangle's first corner (`ox`, `oy`): the share
+/// `a0 + ax·(x − ox) + ay·(y − oy)` and the fibre `base + f0 + fx·(x − ox) + fy·(y − oy)`
+/// (`base` the integer part of the first corner's fibre, so that the plane keeps its
+/// precision on fibres counted in the hundreds of thousands).
+#[derive(Clone, Copy, Debug)]
+struct Fade {
+    a0: f32,
+    ax: f32,
+    ay: f32,
+    base: i64,
+    f0: f32,
+    fx: f32,
+    fy: f32,
+    salt: u32,
+}
+
+impl Fade {
+    /// Bit `s` set for each sample of pixel (`px`, `py`) that triangle `t` covers (of those at
+    /// `offsets`, pixel units from the pixel's corner) where its fibre is there.
+    #[inline]
+    fn kept<const N: usize>(&self, t: &RasterTri, px: i32, py: i32, offsets: &[(f32, f32); N]) -> u32 {
+        let (dx, dy) = (px as f32 - t.ox, py as f32 - t.oy);
+        let share = self.a0 + self.ax * (dx + 0.5) + self.ay * (dy + 0.5);
+        if share >= 1.0 {
+            return u32::MAX;
+        }
+        if share.is_nan() || share <= 0.0 {
+            return 0;
+        }
+        let corner = self.f0 + self.fx * dx + self.fy * dy;
+        let mut mask = 0;
+        for (s, &(ox, oy)) in offsets.iter().enumerate() {
+            let fibre = self.base + (corner + self.fx * ox + self.fy * oy).floor() as i64;
+            if fibre_threshold(fibre, self.salt) < share {
+                mask |= 1 << s;
+            }
+        }
+        mask
+    }
+}
+
+/// The share (0..1) over which fibre `fibre` of the scene item salted `salt` is drawn.
+fn fibre_threshold(fibre: i64, salt: u32) -> f32 {
+    let h = mix32((fibre as u32) ^ mix32(((fibre >> 32) as u32) ^ salt));
+    (h >> 8) as f32 * (1.0 / 16_777_216.0)
+}
+
+/// A 32-bit integer hash with good avalanche (every input bit flips about half the output
+/// bits).
+fn mix32(mut x: u32) -> u32 {
+    x ^= x >> 16;
+    x = x.wrapping_mul(0x7feb_352d);
+    x ^= x >> 15;
+    x = x.wrapping_mul(0x846c_a68b);
+    x ^ (x >> 16)
 }
 
 /// Which triangle of the scene a (possibly clipped) piece comes from.
@@ -338,6 +421,8 @@ struct ShadeTri {
 
 struct Setup {
     raster: Vec<RasterTri>,
+    /// The fades of the triangles that thin out ([`RasterTri::fade`]).
+    fade: Vec<Fade>,
     shade: Vec<ShadeTri>,
     width: usize,
     height: usize,
@@ -369,6 +454,7 @@ struct SetupScratch {
 #[derive(Default)]
 struct SetupStorage {
     raster: Vec<RasterTri>,
+    fade: Vec<Fade>,
     shade: Vec<ShadeTri>,
     bin_start: Vec<usize>,
     bin_ids: Vec<u32>,
@@ -384,6 +470,7 @@ impl Drop for Setup {
     fn drop(&mut self) {
         let storage = SetupStorage {
             raster: emptied(&mut self.raster),
+            fade: emptied(&mut self.fade),
             shade: emptied(&mut self.shade),
             bin_start: emptied(&mut self.bin_start),
             bin_ids: emptied(&mut self.bin_ids),
@@ -439,6 +526,7 @@ impl Setup {
         let storage = SETUP_STORAGE.try_with(|slot| slot.take()).unwrap_or_default();
         let mut setup = Setup {
             raster: storage.raster,
+            fade: storage.fade,
             shade: storage.shade,
             width: camera.width as usize,
             height: camera.height as usize,
@@ -464,6 +552,11 @@ impl Setup {
                 tris.uvs.is_empty() || tris.uvs.len() == n,
                 "scene item {item}: {} uvs for {n} positions",
                 tris.uvs.len()
+            );
+            assert!(
+                tris.coverage.is_empty() || tris.coverage.len() == n,
+                "scene item {item}: {} coverages for {n} positions",
+                tris.coverage.len()
             );
             // Items often share one vertex array (the parts of a mesh): transform it once.
             let shares_previous = item > 0 && std::ptr::eq(scene[item - 1].positions, tris.positions);
@@ -495,7 +588,7 @@ impl Setup {
                     // they are.
                     let q = [snapped[i0], snapped[i1], snapped[i2]];
                     let w = [homogeneous[i0].z, homogeneous[i1].z, homogeneous[i2].z];
-                    setup.emit(q, w, [Vec3::X, Vec3::Y, Vec3::Z], source, backface_culling);
+                    setup.emit(q, w, [Vec3::X, Vec3::Y, Vec3::Z], source, tris.coverage, backface_culling);
                 } else {
                     let corners = [
                         ClipVertex { h: homogeneous[i0], bary: Vec3::X },
@@ -506,7 +599,7 @@ impl Setup {
                     for k in 1..len.saturating_sub(1) {
                         let corners = [poly[0], poly[k], poly[k + 1]];
                         let (q, w, bary) = (corners.map(|c| snap(c.h)), corners.map(|c| c.h.z), corners.map(|c| c.bary));
-                        setup.emit(q, w, bary, source, backface_culling);
+                        setup.emit(q, w, bary, source, tris.coverage, backface_culling);
                     }
                 }
             }
@@ -518,22 +611,23 @@ impl Setup {
 
     /// Orients and stores one (possibly clipped) triangle, unless it is culled. `q`: the corners
     /// snapped to fixed point ([`snap`]); `w`: their homogeneous w; `bary`: their barycentric
-    /// coordinates with respect to the original triangle; `source`: that triangle. Inlined, so
-    /// that the culled half of a closed mesh costs no call.
+    /// coordinates with respect to the original triangle; `source`: that triangle; `coverage`:
+    /// its item's ([`Triangles::coverage`]). Inlined, so that the culled half of a closed mesh
+    /// costs no call.
     #[inline(always)]
-    fn emit(&mut self, q: [[i64; 2]; 3], w: [f32; 3], bary: [Vec3; 3], source: Source, backface_culling: bool) {
+    fn emit(&mut self, q: [[i64; 2]; 3], w: [f32; 3], bary: [Vec3; 3], source: Source, coverage: &[Coverage], backface_culling: bool) {
         let area2 = (q[1][0] - q[0][0]) * (q[2][1] - q[0][1]) - (q[1][1] - q[0][1]) * (q[2][0] - q[0][0]);
         // With y down, a triangle that is counter-clockwise as seen by the viewer has area2 < 0.
         if area2 < 0 {
-            self.store(swap_last(q), swap_last(w), swap_last(bary), source);
+            self.store(swap_last(q), swap_last(w), swap_last(bary), source, coverage);
         } else if area2 > 0 && !backface_culling {
-            self.store(q, w, bary, source);
+            self.store(q, w, bary, source, coverage);
         }
     }
 
     /// Stores one triangle whose corners `q` (as for [`Self::emit`]) run so that its edge
     /// functions are positive inside.
-    fn store(&mut self, q: [[i64; 2]; 3], w: [f32; 3], bary: [Vec3; 3], source: Source) {
+    fn store(&mut self, q: [[i64; 2]; 3], w: [f32; 3], bary: [Vec3; 3], source: Source, coverage: &[Coverage]) {
         let min_x = q.iter().map(|p| p[0]).min().unwrap();
         let max_x = q.iter().map(|p| p[0]).max().unwrap();
         let min_y = q.iter().map(|p| p[1]).min().unwrap();
@@ -571,6 +665,22 @@ impl Setup {
         let (dz1, dz2) = (inv_w[1] - inv_w[0], inv_w[2] - inv_w[0]);
         let zx = (dz1 * d2y - dz2 * d1y) / det;
         let zy = (dz2 * d1x - dz1 * d2x) / det;
+        // A plane through the corners' values (as the depth's): its slopes in x and y.
+        let slopes = |v: [f64; 3]| {
+            let (d1, d2) = (v[1] - v[0], v[2] - v[0]);
+            (((d1 * d2y - d2 * d1y) / det) as f32, ((d2 * d1x - d1 * d2x) / det) as f32)
+        };
+        let fade = match corner_coverage(coverage, source.vertex, bary) {
+            Some(corners) => {
+                let (ax, ay) = slopes(corners.map(|c| f64::from(c.share)));
+                let base = f64::from(corners[0].fibre).floor();
+                let (fx, fy) = slopes(corners.map(|c| f64::from(c.fibre)));
+                let f0 = (f64::from(corners[0].fibre) - base) as f32;
+                self.fade.push(Fade { a0: corners[0].share, ax, ay, base: base as i64, f0, fx, fy, salt: source.item });
+                self.fade.len() as u32 - 1
+            }
+            None => OPAQUE,
+        };
         self.raster.push(RasterTri {
             a,
             b,
@@ -581,6 +691,7 @@ impl Setup {
             zy: zy as f32,
             ox: p[0][0] as f32,
             oy: p[0][1] as f32,
+            fade,
         });
         if !self.with_shading {
             return;
@@ -657,6 +768,22 @@ impl RasterTri {
             self.a[k] * x + self.b[k] * y + self.c[k] >= 0
         })
     }
+}
+
+/// The coverage at the corners of a (possibly clipped) piece of the scene's triangle
+/// `vertex`, whose corners have barycentric coordinates `bary` with respect to it, from its
+/// item's `coverage` (per vertex, or empty), when some vertex's share is under 1; `None` for
+/// an opaque triangle.
+fn corner_coverage(coverage: &[Coverage], vertex: [u32; 3], bary: [Vec3; 3]) -> Option<[Coverage; 3]> {
+    if coverage.is_empty() {
+        return None;
+    }
+    let at = vertex.map(|i| coverage[i as usize]);
+    if at.iter().all(|c| c.share >= 1.0) {
+        return None;
+    }
+    let (share, fibre) = (Vec3::from(at.map(|c| c.share)), Vec3::from(at.map(|c| c.fibre)));
+    Some(bary.map(|b| Coverage { share: b.dot(share), fibre: b.dot(fibre) }))
 }
 
 /// The three corners of a triangle in the other order (the first kept, the others swapped).
@@ -780,93 +907,129 @@ fn rasterize_tile_n<const N: usize>(setup: &Setup, tile: usize, pattern: &[(i64,
     let pattern: &[(i64, i64); N] = pattern.try_into().expect("pattern length matches N");
     let offsets_px: [(f32, f32); N] =
         std::array::from_fn(|s| (pattern[s].0 as f32 / SUB as f32, pattern[s].1 as f32 / SUB as f32));
-    let (tx1, ty1) = ((tx0 + tw - 1) as i32, (ty0 + th - 1) as i32);
+    let mut target = TileTarget { depth, ids, x0: tx0, y0: ty0, x1: (tx0 + tw - 1) as i32, y1: (ty0 + th - 1) as i32 };
+    let samples = Samples { pattern, offsets_px };
     for &id in &setup.bin_ids[setup.bin_start[tile]..setup.bin_start[tile + 1]] {
         let t = &setup.raster[id as usize];
-        let x0 = t.bbox[0].max(tx0 as i32);
-        let y0 = t.bbox[1].max(ty0 as i32);
-        let x1 = t.bbox[2].min(tx1);
-        let y1 = t.bbox[3].min(ty1);
-        if x0 > x1 || y0 > y1 {
+        // Two copies of the loop: the opaque triangles' has no fibre test at all.
+        match t.fade {
+            OPAQUE => draw_triangle::<N, false>(t, id, None, &samples, &mut target),
+            fade => draw_triangle::<N, true>(t, id, Some(&setup.fade[fade as usize]), &samples, &mut target),
+        }
+    }
+}
+
+/// One tile's visibility buffer being drawn, and the pixel rectangle it covers (inclusive).
+struct TileTarget<'a> {
+    depth: &'a mut [f32],
+    ids: &'a mut [u32],
+    x0: usize,
+    y0: usize,
+    x1: i32,
+    y1: i32,
+}
+
+/// The sample pattern: offsets from a pixel's top-left corner in fixed point and in pixels.
+struct Samples<'a, const N: usize> {
+    pattern: &'a [(i64, i64); N],
+    offsets_px: [(f32, f32); N],
+}
+
+/// Draws triangle `t` (id `id`) into the tile: each covered sample nearer than the one stored
+/// takes its depth and id. With `FADE`, only the samples whose fibre `fade` has are covered.
+/// Inlined into the tile's loop: a call per triangle and tile cost more than its copies.
+#[inline(always)]
+fn draw_triangle<const N: usize, const FADE: bool>(t: &RasterTri, id: u32, fade: Option<&Fade>, samples: &Samples<N>, tile: &mut TileTarget) {
+    let (pattern, offsets_px) = (samples.pattern, &samples.offsets_px);
+    let TileTarget { depth: tile_depth, ids: tile_ids, x0: tx0, y0: ty0, x1: tx1, y1: ty1 } = tile;
+    let (tx0, ty0) = (*tx0, *ty0);
+    let x0 = t.bbox[0].max(tx0 as i32);
+    let y0 = t.bbox[1].max(ty0 as i32);
+    let x1 = t.bbox[2].min(*tx1);
+    let y1 = t.bbox[3].min(*ty1);
+    if x0 > x1 || y0 > y1 {
+        return;
+    }
+    // Edge value at each sample relative to the pixel's top-left corner.
+    let mut off = [[0i64; N]; 3];
+    let mut off_min = [i64::MAX; 3];
+    let mut off_max = [i64::MIN; 3];
+    for k in 0..3 {
+        for s in 0..N {
+            let o = t.a[k] * pattern[s].0 + t.b[k] * pattern[s].1;
+            off[k][s] = o;
+            off_min[k] = off_min[k].min(o);
+            off_max[k] = off_max[k].max(o);
+        }
+    }
+    let z_off: [f32; N] = std::array::from_fn(|s| t.zx * offsets_px[s].0 + t.zy * offsets_px[s].1);
+    #[cfg(target_arch = "x86_64")]
+    let quad = (N == 4).then(|| four_samples::Quad::new(&off, &z_off));
+    let step_x = [t.a[0] * SUB, t.a[1] * SUB, t.a[2] * SUB];
+    let step_y = [t.b[0] * SUB, t.b[1] * SUB, t.b[2] * SUB];
+    // Edge values at the top-left corner of the box's first pixel in the current row (exact
+    // integers, so stepping gives the same values as working them out per row).
+    let (fx, fy) = (i64::from(x0) * SUB, i64::from(y0) * SUB);
+    let mut row_start: [i64; 3] = std::array::from_fn(|k| t.a[k] * fx + t.b[k] * fy + t.c[k]);
+    for py in y0..=y1 {
+        let mut e = row_start;
+        for k in 0..3 {
+            row_start[k] += step_y[k];
+        }
+        // In a narrow box a pixel's test costs less than finding where the run starts.
+        let skip = if x1 - x0 < NARROW_BOX { 0 } else { run_start(&e, &off_max, &step_x) };
+        if skip > i64::from(x1 - x0) {
             continue;
         }
-        // Edge value at each sample relative to the pixel's top-left corner.
-        let mut off = [[0i64; N]; 3];
-        let mut off_min = [i64::MAX; 3];
-        let mut off_max = [i64::MIN; 3];
-        for k in 0..3 {
-            for s in 0..N {
-                let o = t.a[k] * pattern[s].0 + t.b[k] * pattern[s].1;
-                off[k][s] = o;
-                off_min[k] = off_min[k].min(o);
-                off_max[k] = off_max[k].max(o);
+        if skip > 0 {
+            for k in 0..3 {
+                e[k] += skip * step_x[k];
             }
         }
-        let z_off: [f32; N] = std::array::from_fn(|s| t.zx * offsets_px[s].0 + t.zy * offsets_px[s].1);
-        #[cfg(target_arch = "x86_64")]
-        let quad = (N == 4).then(|| four_samples::Quad::new(&off, &z_off));
-        let step_x = [t.a[0] * SUB, t.a[1] * SUB, t.a[2] * SUB];
-        let step_y = [t.b[0] * SUB, t.b[1] * SUB, t.b[2] * SUB];
-        // Edge values at the top-left corner of the box's first pixel in the current row (exact
-        // integers, so stepping gives the same values as working them out per row).
-        let (fx, fy) = (i64::from(x0) * SUB, i64::from(y0) * SUB);
-        let mut row_start: [i64; 3] = std::array::from_fn(|k| t.a[k] * fx + t.b[k] * fy + t.c[k]);
-        for py in y0..=y1 {
-            let mut e = row_start;
-            for k in 0..3 {
-                row_start[k] += step_y[k];
+        let z_row = t.zy * (py as f32 - t.oy);
+        let row_base = (py as usize - ty0) * TILE;
+        // Past the run's end nothing else in the row passes.
+        let mut in_run = false;
+        for px in x0 + skip as i32..=x1 {
+            let (e0, e1, e2) = (e[0], e[1], e[2]);
+            e[0] += step_x[0];
+            e[1] += step_x[1];
+            e[2] += step_x[2];
+            if (e0 + off_max[0]) | (e1 + off_max[1]) | (e2 + off_max[2]) < 0 {
+                if in_run {
+                    break;
+                }
+                continue; // no sample of this pixel is inside
             }
-            // In a narrow box a pixel's test costs less than finding where the run starts.
-            let skip = if x1 - x0 < NARROW_BOX { 0 } else { run_start(&e, &off_max, &step_x) };
-            if skip > i64::from(x1 - x0) {
+            in_run = true;
+            let z_pixel = t.z0 + (t.zx * (px as f32 - t.ox) + z_row);
+            let base = (row_base + px as usize - tx0) * N;
+            let depth = &mut tile_depth[base..base + N];
+            let ids = &mut tile_ids[base..base + N];
+            let kept = match fade {
+                Some(fade) if FADE => fade.kept(t, px, py, offsets_px),
+                _ => u32::MAX,
+            };
+            #[cfg(target_arch = "x86_64")]
+            if let Some(quad) = &quad {
+                quad.depth_test(depth, ids, z_pixel, id, quad.inside([e0, e1, e2]) & kept as i32);
                 continue;
             }
-            if skip > 0 {
-                for k in 0..3 {
-                    e[k] += skip * step_x[k];
-                }
-            }
-            let z_row = t.zy * (py as f32 - t.oy);
-            let row_base = (py as usize - ty0) * TILE;
-            // Past the run's end nothing else in the row passes.
-            let mut in_run = false;
-            for px in x0 + skip as i32..=x1 {
-                let (e0, e1, e2) = (e[0], e[1], e[2]);
-                e[0] += step_x[0];
-                e[1] += step_x[1];
-                e[2] += step_x[2];
-                if (e0 + off_max[0]) | (e1 + off_max[1]) | (e2 + off_max[2]) < 0 {
-                    if in_run {
-                        break;
+            if !FADE && (e0 + off_min[0]) | (e1 + off_min[1]) | (e2 + off_min[2]) >= 0 {
+                for s in 0..N {
+                    let z = z_pixel + z_off[s];
+                    if z > depth[s] {
+                        depth[s] = z;
+                        ids[s] = id;
                     }
-                    continue; // no sample of this pixel is inside
                 }
-                in_run = true;
-                let z_pixel = t.z0 + (t.zx * (px as f32 - t.ox) + z_row);
-                let base = (row_base + px as usize - tx0) * N;
-                let depth = &mut depth[base..base + N];
-                let ids = &mut ids[base..base + N];
-                #[cfg(target_arch = "x86_64")]
-                if let Some(quad) = &quad {
-                    quad.depth_test(depth, ids, z_pixel, id, quad.inside([e0, e1, e2]));
-                    continue;
-                }
-                if (e0 + off_min[0]) | (e1 + off_min[1]) | (e2 + off_min[2]) >= 0 {
-                    for s in 0..N {
+            } else {
+                for s in 0..N {
+                    if kept >> s & 1 == 1 && (e0 + off[0][s]) | (e1 + off[1][s]) | (e2 + off[2][s]) >= 0 {
                         let z = z_pixel + z_off[s];
                         if z > depth[s] {
                             depth[s] = z;
                             ids[s] = id;
-                        }
-                    }
-                } else {
-                    for s in 0..N {
-                        if (e0 + off[0][s]) | (e1 + off[1][s]) | (e2 + off[2][s]) >= 0 {
-                            let z = z_pixel + z_off[s];
-                            if z > depth[s] {
-                                depth[s] = z;
-                                ids[s] = id;
-                            }
                         }
                     }
                 }
@@ -1204,7 +1367,7 @@ mod tests {
     }
 
     fn item<'a>(positions: &'a [Vec3], indices: &'a [[u32; 3]], part: u16) -> Triangles<'a> {
-        Triangles { positions, normals: &[], uvs: &[], indices, part, two_sided: false }
+        Triangles { positions, normals: &[], uvs: &[], indices, part, two_sided: false, coverage: &[] }
     }
 
     fn opts(samples: SampleCount) -> RenderOptions {
@@ -1474,6 +1637,93 @@ mod tests {
         }
     }
 
+    /// A square over the whole image of [`camera`]`(S)` at height `z`: two triangles.
+    fn square(z: f32) -> ([Vec3; 4], [[u32; 3]; 2]) {
+        let s = S as f32;
+        ([pix(0.0, 0.0, z), pix(s, 0.0, z), pix(s, s, z), pix(0.0, s, z)], [[0, 1, 2], [0, 2, 3]])
+    }
+
+    /// The share of the samples of `pixels` that show scene item `item`.
+    fn share_shown(vis: &Visibility, item: u32, pixels: impl Iterator<Item = (u32, u32)>) -> f64 {
+        let (mut shown, mut all) = (0, 0);
+        for (x, y) in pixels {
+            shown += vis.pixel(x, y).iter().flatten().filter(|h| h.item == item).count();
+            all += vis.samples_per_pixel;
+        }
+        shown as f64 / all as f64
+    }
+
+    /// The coverage of [`square`]'s corners: `share` at each, fibres running down the image,
+    /// `per_pixel` of them to a pixel across it.
+    fn fibres_down(share: [f32; 4], per_pixel: f32) -> [Coverage; 4] {
+        let across = [0.0, 1.0, 1.0, 0.0].map(|x: f32| x * S as f32 * per_pixel);
+        std::array::from_fn(|k| Coverage { share: share[k], fibre: across[k] })
+    }
+
+    #[test]
+    fn a_thinning_surface_draws_its_share_of_fibres_each_whole_along_its_length() {
+        let (corners, quad) = square(0.0);
+        let cam = camera(S);
+        for samples in [SampleCount::X4, SampleCount::X16] {
+            for share in [0.3f32, 0.5, 0.8] {
+                // Fibres about a fifteenth of a pixel wide: 979 across the square.
+                let coverage = fibres_down([share; 4], 15.3);
+                let vis = visibility(&[Triangles { coverage: &coverage, ..item(&corners, &quad, 0) }], &cam, &opts(samples));
+                let all = (0..S).flat_map(|y| (0..S).map(move |x| (x, y)));
+                let shown = share_shown(&vis, 0, all);
+                assert!((shown - f64::from(share)).abs() < 0.05, "{samples:?}, share {share}: {shown:.4}");
+                // A fibre runs down the whole square: every row covers the same samples.
+                for y in 1..S {
+                    for x in 0..S {
+                        let covered = |y| vis.pixel(x, y).iter().map(Option::is_some).collect::<Vec<_>>();
+                        assert_eq!(covered(y), covered(0), "{samples:?}, pixel ({x}, {y})");
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn fibres_end_one_by_one_where_the_share_falls_and_layers_let_each_other_through() {
+        let (corners, quad) = square(0.0);
+        let cam = camera(S);
+        // All fibres at the top, none at the bottom: each row shows about the share at its
+        // centre, and a fibre that has ended does not start again further down.
+        let ramp = fibres_down([1.0, 1.0, 0.0, 0.0], 15.3);
+        let vis = visibility(&[Triangles { coverage: &ramp, ..item(&corners, &quad, 0) }], &cam, &opts(SampleCount::X4));
+        for y in 0..S {
+            let expected = 1.0 - (f64::from(y) + 0.5) / f64::from(S);
+            let shown = share_shown(&vis, 0, (0..S).map(|x| (x, y)));
+            assert!((shown - expected).abs() < 0.06, "row {y}: {shown:.3}, expected {expected:.3}");
+        }
+        for x in 0..S {
+            for s in 0..4 {
+                let ended = (0..S).position(|y| vis.pixel(x, y)[s].is_none()).unwrap_or(S as usize);
+                assert!((ended..S as usize).all(|y| vis.pixel(x, y as u32)[s].is_none()), "pixel column {x}, sample {s}");
+            }
+        }
+        // Two layers showing half their fibres each, one just behind the other (their fibres
+        // falling on the same samples): the far one shows through the near one's gaps (each
+        // item draws its own fibres), so together they cover about three quarters, not a half.
+        let (far, _) = square(-0.002);
+        let half = fibres_down([0.5; 4], 15.3);
+        let scene = [Triangles { coverage: &half, ..item(&corners, &quad, 0) }, Triangles { coverage: &half, ..item(&far, &quad, 1) }];
+        let vis = visibility(&scene, &cam, &opts(SampleCount::X4));
+        let all = || (0..S).flat_map(|y| (0..S).map(move |x| (x, y)));
+        let (near, behind) = (share_shown(&vis, 0, all()), share_shown(&vis, 1, all()));
+        assert!((near - 0.5).abs() < 0.05 && (near + behind - 0.75).abs() < 0.05, "near {near:.3}, together {:.3}", near + behind);
+    }
+
+    #[test]
+    fn full_coverage_draws_as_an_opaque_surface() {
+        let (corners, quad) = square(0.0);
+        let cam = camera(S);
+        let opaque = visibility(&[item(&corners, &quad, 0)], &cam, &opts(SampleCount::X4));
+        let full = fibres_down([1.0; 4], 16.0);
+        let covered = visibility(&[Triangles { coverage: &full, ..item(&corners, &quad, 0) }], &cam, &opts(SampleCount::X4));
+        assert_eq!(opaque, covered);
+    }
+
     #[test]
     fn nearer_triangle_wins_regardless_of_order() {
         let far = [pix(5.0, 5.0, 0.0), pix(5.0, 40.0, 0.0), pix(40.0, 5.0, 0.0)];
@@ -1586,6 +1836,7 @@ mod tests {
     #[test]
     fn output_is_byte_identical_for_any_thread_count() {
         let mesh = random_mesh(42, 400, 14.0);
+        let fades: Vec<Coverage> = (0..mesh.positions.len()).map(|i| Coverage { share: (i % 7) as f32 / 6.0, fibre: i as f32 * 3.7 }).collect();
         let scene = [
             Triangles {
                 positions: &mesh.positions,
@@ -1594,6 +1845,7 @@ mod tests {
                 indices: &mesh.indices[..200],
                 part: 3,
                 two_sided: false,
+                coverage: &[],
             },
             Triangles {
                 positions: &mesh.positions,
@@ -1602,6 +1854,8 @@ mod tests {
                 indices: &mesh.indices[200..],
                 part: 5,
                 two_sided: false,
+                // Half of the scene thins out, so that the fades' samples are compared too.
+                coverage: &fades,
             },
         ];
         let cam = random_scene_camera(173, 131);
@@ -1628,6 +1882,7 @@ mod tests {
             indices: &mesh.indices,
             part: 1,
             two_sided: false,
+            coverage: &[],
         }];
         let cam = random_scene_camera(64, 48);
         let o = RenderOptions { samples_per_pixel: SampleCount::X16, threads: None, backface_culling: false, shade_per_surface: false };
@@ -1665,7 +1920,7 @@ mod tests {
         let positions = [pix(4.0, 4.0, 0.0), pix(60.0, 8.0, -20.0), pix(12.0, 60.0, 10.0), pix(58.0, 58.0, 5.0)];
         let uvs = [Vec2::ZERO, Vec2::X, Vec2::Y, Vec2::ONE];
         let indices = [[0u32, 2, 1], [1, 2, 3]];
-        let scene = [Triangles { positions: &positions, normals: &[], uvs: &uvs, indices: &indices, part: 9, two_sided: false }];
+        let scene = [Triangles { positions: &positions, normals: &[], uvs: &uvs, indices: &indices, part: 9, two_sided: false, coverage: &[] }];
         let img = render(&scene, &camera(S), &FieldCheck(&positions, &uvs, &indices), &opts(SampleCount::X16));
         assert!(img.data.chunks(3).all(|p| p[1] == p[0]), "some fragment failed its checks");
         assert!(img.data.chunks(3).filter(|p| p[0] == 255).count() > 1500);

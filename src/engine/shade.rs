@@ -2378,7 +2378,7 @@ mod tests {
     fn map_from_above(casters: &[[Vec3; 4]], key_size: f32) -> ShadowMap {
         let positions: Vec<Vec3> = casters.iter().flatten().copied().collect();
         let indices: Vec<[u32; 3]> = (0..casters.len() as u32).flat_map(|q| [[4 * q, 4 * q + 1, 4 * q + 2], [4 * q, 4 * q + 2, 4 * q + 3]]).collect();
-        let scene = [Triangles { positions: &positions, normals: &[], uvs: &[], indices: &indices, part: 0, two_sided: false }];
+        let scene = [Triangles { positions: &positions, normals: &[], uvs: &[], indices: &indices, part: 0, two_sided: false, coverage: &[] }];
         ShadowMap::new(&scene, Vec3::Z, key_size, Vec3::ZERO, 288, Some(1))
     }
 
@@ -2643,7 +2643,7 @@ mod tests {
         let lighting = look.light.lighting();
         let key = lighting.lights[0].direction;
         let parts = [Part::Skin, Part::TeethUpper];
-        let scene: Vec<Triangles> = parts.iter().map(|&part| Triangles { positions: &posed.positions, normals: &posed.normals, uvs: &[], indices: model.casting_triangles(part), part: part.id(), two_sided: false }).collect();
+        let scene: Vec<Triangles> = parts.iter().map(|&part| Triangles { positions: &posed.positions, normals: &posed.normals, uvs: &[], indices: model.casting_triangles(part), part: part.id(), two_sided: false, coverage: &[] }).collect();
         let map = ShadowMap::new(&scene, key, lighting.key_size, posed.anchor, 1024, Some(1));
         let mut shader = FaceShader::new(model, &posed, identity, &look, &camera).with_shadows(&map);
         let fragments: Vec<Fragment> = model.part(Part::TeethUpper).triangles.iter().enumerate().flat_map(|(i, &vertex)| {
