@@ -352,26 +352,38 @@ struct Fade {
     fx: f32,
     fy: f32,
     salt: u32,
+    /// `mix32(salt)`: the hash of the fibre's high 32 bits (0 for all but huge fibres) with
+    /// the salt.
+    salt_hash: u32,
 }
 
 impl Fade {
-    /// Bit `s` set for each sample of pixel (`px`, `py`) that triangle `t` covers (of those at
-    /// `offsets`, pixel units from the pixel's corner) where its fibre is there.
+    /// Of the samples of pixel (`px`, `py`) whose bit is set in `candidates` (those at
+    /// `offsets`, pixel units from the pixel's corner), those where triangle `t`'s fibre is
+    /// there: the samples a thin triangle does not cover are not looked at.
     #[inline]
-    fn kept<const N: usize>(&self, t: &RasterTri, px: i32, py: i32, offsets: &[(f32, f32); N]) -> u32 {
+    fn kept<const N: usize>(&self, t: &RasterTri, px: i32, py: i32, offsets: &[(f32, f32); N], candidates: u32) -> u32 {
         let (dx, dy) = (px as f32 - t.ox, py as f32 - t.oy);
         let share = self.a0 + self.ax * (dx + 0.5) + self.ay * (dy + 0.5);
         if share >= 1.0 {
-            return u32::MAX;
+            return candidates;
         }
         if share.is_nan() || share <= 0.0 {
             return 0;
         }
         let corner = self.f0 + self.fx * dx + self.fy * dy;
+        // The threshold's 24 bits against the share scaled by 2²⁴ (both exact in f32): the same
+        // test as `fibre_threshold(fibre) < share`, without a division.
+        let scaled = share * 16_777_216.0;
         let mut mask = 0;
         for (s, &(ox, oy)) in offsets.iter().enumerate() {
-            let fibre = self.base + (corner + self.fx * ox + self.fy * oy).floor() as i64;
-            if fibre_threshold(fibre, self.salt) < share {
+            if candidates >> s & 1 == 0 {
+                continue;
+            }
+            let fibre = self.base + floor_to_i64(corner + self.fx * ox + self.fy * oy);
+            let high = (fibre >> 32) as u32;
+            let salt = if high == 0 { self.salt_hash } else { mix32(high ^ self.salt) };
+            if ((mix32(fibre as u32 ^ salt) >> 8) as f32) < scaled {
                 mask |= 1 << s;
             }
         }
@@ -379,10 +391,24 @@ impl Fade {
     }
 }
 
-/// The share (0..1) over which fibre `fibre` of the scene item salted `salt` is drawn.
+/// The share (0..1) over which fibre `fibre` of the scene item salted `salt` is drawn
+/// ([`Fade::kept`] works it out the same way, a step at a time).
+#[cfg(test)]
 fn fibre_threshold(fibre: i64, salt: u32) -> f32 {
     let h = mix32((fibre as u32) ^ mix32(((fibre >> 32) as u32) ^ salt));
     (h >> 8) as f32 * (1.0 / 16_777_216.0)
+}
+
+/// `x.floor() as i64` without a call into libm (x86-64's baseline has no rounding
+/// instruction): truncation, one less where that rounded a negative number up. NaN gives 0.
+#[inline(always)]
+fn floor_to_i64(x: f32) -> i64 {
+    let t = x as i64;
+    if (t as f32) > x {
+        t - 1
+    } else {
+        t
+    }
 }
 
 /// A 32-bit integer hash with good avalanche (every input bit flips about half the output
@@ -676,7 +702,7 @@ impl Setup {
                 let base = f64::from(corners[0].fibre).floor();
                 let (fx, fy) = slopes(corners.map(|c| f64::from(c.fibre)));
                 let f0 = (f64::from(corners[0].fibre) - base) as f32;
-                self.fade.push(Fade { a0: corners[0].share, ax, ay, base: base as i64, f0, fx, fy, salt: source.item });
+                self.fade.push(Fade { a0: corners[0].share, ax, ay, base: base as i64, f0, fx, fy, salt: source.item, salt_hash: mix32(source.item) });
                 self.fade.len() as u32 - 1
             }
             None => OPAQUE,
@@ -914,9 +940,16 @@ fn rasterize_tile_n<const N: usize>(setup: &Setup, tile: usize, pattern: &[(i64,
         // Two copies of the loop: the opaque triangles' has no fibre test at all.
         match t.fade {
             OPAQUE => draw_triangle::<N, false>(t, id, None, &samples, &mut target),
-            fade => draw_triangle::<N, true>(t, id, Some(&setup.fade[fade as usize]), &samples, &mut target),
+            fade => draw_thinning_triangle(t, id, &setup.fade[fade as usize], &samples, &mut target),
         }
     }
+}
+
+/// [`draw_triangle`] for a triangle that thins out, kept out of the tile's loop: inlined there
+/// too, it made the opaque triangles' copy of the loop slower.
+#[inline(never)]
+fn draw_thinning_triangle<const N: usize>(t: &RasterTri, id: u32, fade: &Fade, samples: &Samples<N>, tile: &mut TileTarget) {
+    draw_triangle::<N, true>(t, id, Some(fade), samples, tile);
 }
 
 /// One tile's visibility buffer being drawn, and the pixel rectangle it covers (inclusive).
@@ -1006,15 +1039,25 @@ fn draw_triangle<const N: usize, const FADE: bool>(t: &RasterTri, id: u32, fade:
             let base = (row_base + px as usize - tx0) * N;
             let depth = &mut tile_depth[base..base + N];
             let ids = &mut tile_ids[base..base + N];
-            let kept = match fade {
-                Some(fade) if FADE => fade.kept(t, px, py, offsets_px),
-                _ => u32::MAX,
-            };
             #[cfg(target_arch = "x86_64")]
             if let Some(quad) = &quad {
-                quad.depth_test(depth, ids, z_pixel, id, quad.inside([e0, e1, e2]) & kept as i32);
+                let inside = quad.inside([e0, e1, e2]);
+                // Only samples this triangle would win need their fibre looked up (hair hanging
+                // behind the neck and the other hair is most of a thinning surface's samples).
+                let kept = match fade {
+                    Some(fade) if FADE => match inside & quad.nearer(depth, z_pixel) {
+                        0 => 0,
+                        wins => fade.kept(t, px, py, offsets_px, wins as u32) as i32,
+                    },
+                    _ => inside,
+                };
+                quad.depth_test(depth, ids, z_pixel, id, kept);
                 continue;
             }
+            let kept = match fade {
+                Some(fade) if FADE => fade.kept(t, px, py, offsets_px, u32::MAX),
+                _ => u32::MAX,
+            };
             if !FADE && (e0 + off_min[0]) | (e1 + off_min[1]) | (e2 + off_min[2]) >= 0 {
                 for s in 0..N {
                     let z = z_pixel + z_off[s];
@@ -1100,6 +1143,22 @@ mod four_samples {
                 }
                 let outside = _mm_movemask_pd(_mm_castsi128_pd(lo)) | (_mm_movemask_pd(_mm_castsi128_pd(hi)) << 2);
                 !outside & 0b1111
+            }
+        }
+
+        /// Bit s set where sample s's depth `z_pixel + z_off[s]` is nearer (larger) than the
+        /// one stored in `depth`: the samples [`Quad::depth_test`] could change.
+        #[inline(always)]
+        pub fn nearer(&self, depth: &[f32], z_pixel: f32) -> i32 {
+            let depth: &[f32; 4] = match depth.try_into() {
+                Ok(d) => d,
+                Err(_) => unreachable!("a pixel has four samples"),
+            };
+            // SAFETY: SSE/SSE2 only; the pointer comes from a reference to a four-element array,
+            // which the unaligned load stays within.
+            unsafe {
+                let z = _mm_add_ps(_mm_set1_ps(z_pixel), self.z_off);
+                _mm_movemask_ps(_mm_cmpgt_ps(z, _mm_loadu_ps(depth.as_ptr())))
             }
         }
 
@@ -1712,6 +1771,29 @@ mod tests {
         let all = || (0..S).flat_map(|y| (0..S).map(move |x| (x, y)));
         let (near, behind) = (share_shown(&vis, 0, all()), share_shown(&vis, 1, all()));
         assert!((near - 0.5).abs() < 0.05 && (near + behind - 0.75).abs() < 0.05, "near {near:.3}, together {:.3}", near + behind);
+    }
+
+    /// The raster's fibre test, worked out a step at a time, is the fibre's threshold against
+    /// the share; fibres are numbered by the floor of their coordinate, negative ones too.
+    #[test]
+    fn the_fibre_test_is_the_fibres_threshold_against_the_share() {
+        let t = RasterTri { a: [0; 3], b: [0; 3], c: [0; 3], bbox: [0; 4], z0: 0.0, zx: 0.0, zy: 0.0, ox: 0.0, oy: 0.0, fade: 0 };
+        let mut checked = 0;
+        for (k, base) in [0i64, 7, 123_456, -3, 1 << 33, -(1 << 33)].into_iter().enumerate() {
+            for step in 0..400 {
+                let (f0, share) = (step as f32 * 0.37 - 20.0, (step % 97) as f32 / 96.0);
+                let fade = Fade { a0: share, ax: 0.0, ay: 0.0, base, f0, fx: 0.0, fy: 0.0, salt: k as u32, salt_hash: mix32(k as u32) };
+                let fibre = base + f64::from(f0).floor() as i64;
+                let expected = share >= 1.0 || (share > 0.0 && fibre_threshold(fibre, k as u32) < share);
+                assert_eq!(fade.kept(&t, 0, 0, &[(0.0, 0.0)], 1) == 1, expected, "base {base}, f0 {f0}, share {share}");
+                assert_eq!(fade.kept(&t, 0, 0, &[(0.0, 0.0)], 0), 0, "a sample not asked about is not kept");
+                checked += usize::from(expected);
+            }
+        }
+        assert!(checked > 600, "{checked} of 2,400 fibres drawn");
+        for x in [0.0f32, 0.5, -0.5, -1.0, -1.5, 2.999_999_8, -2.999_999_8, 1e10, -1e10, f32::NAN] {
+            assert_eq!(floor_to_i64(x), x.floor() as i64, "{x}");
+        }
     }
 
     #[test]
