@@ -45,9 +45,9 @@ use std::sync::{Arc, Mutex, OnceLock};
 use glam::{Mat3, Vec2, Vec3};
 
 use super::asset::{FaceModel, Part};
-use super::raster::Coverage;
 use super::identity::{HairStyle, HairTexture, Identity, Parting};
 use super::pose::Posed;
+use super::raster::Coverage;
 
 pub(crate) mod beard;
 

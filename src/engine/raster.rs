@@ -970,7 +970,9 @@ struct Samples<'a, const N: usize> {
 
 /// Draws triangle `t` (id `id`) into the tile: each covered sample nearer than the one stored
 /// takes its depth and id. With `FADE`, only the samples whose fibre `fade` has are covered.
-/// Inlined into the tile's loop: a call per triangle and tile cost more than its copies.
+/// Inlined where it is called: the opaque triangles' copy in the tile's loop (a call per
+/// triangle and tile cost more than the copy), the thinning triangles' in
+/// [`draw_thinning_triangle`].
 #[inline(always)]
 fn draw_triangle<const N: usize, const FADE: bool>(t: &RasterTri, id: u32, fade: Option<&Fade>, samples: &Samples<N>, tile: &mut TileTarget) {
     let (pattern, offsets_px) = (samples.pattern, &samples.offsets_px);
