@@ -49,6 +49,32 @@ struct Regions {
     /// The vertices of the lips' red on the midline, whose movement forward tells how far the
     /// lips stand out in front of the teeth now ([`lips_forward`]).
     lips_midline: Vec<u32>,
+    /// Of those, the front of the upper lip's red and of the lower lip's (the lower lip's is
+    /// the one the jaw-open target lowers, [`jaw_drop`]): how far apart they stand tells how open the mouth is
+    /// ([`lips_apart`]).
+    lips_edges: [Vec<u32>; 2],
+    /// The lips' red in strips across the mouth ([`LIPS_STRIPS`]), each as its upper lip's and
+    /// its lower lip's vertices: how far each strip's lips have moved apart tells where a lip
+    /// lifts off the teeth beside the midline ([`lips_apart`]).
+    lips_strips: Vec<[Vec<u32>; 2]>,
+}
+
+/// Per vertex, how far the CC0 jaw-open target lowers it, as a share of the most it lowers
+/// any vertex: 1 on the chin and the lower lip, 0 on the upper lip.
+fn jaw_drop(model: &FaceModel) -> Vec<f32> {
+    let mut drop = vec![0.0; model.rest.len()];
+    if let Ok(target) = model.target("faceunits/jawOpen") {
+        for (&i, delta) in target.indices.iter().zip(&target.deltas) {
+            if let Some(d) = drop.get_mut(i as usize) {
+                *d = (-delta.y).max(0.0);
+            }
+        }
+    }
+    let most = drop.iter().copied().fold(0.0, f32::max);
+    if most > 0.0 {
+        drop.iter_mut().for_each(|d| *d /= most);
+    }
+    drop
 }
 
 fn regions(model: &FaceModel) -> &'static Regions {
@@ -56,22 +82,78 @@ fn regions(model: &FaceModel) -> &'static Regions {
     REGIONS.get_or_init(|| {
         let load = |name: &str| model.region(name).expect("the embedded face model has its regions");
         let lips = load("lips");
-        let lips_midline = (0..lips.len() as u32).filter(|&i| lips[i as usize] > 0.5 && model.rest[i as usize].x.abs() < LIPS_MIDLINE).collect();
-        Regions { lips, inside_mouth: load("inside_mouth"), ears: load("ears"), lips_midline }
+        let lips_midline: Vec<u32> = (0..lips.len() as u32).filter(|&i| lips[i as usize] > 0.5 && model.rest[i as usize].x.abs() < LIPS_MIDLINE).collect();
+        let jaw = jaw_drop(model);
+        let front = |lower: bool| lips_midline.iter().copied().filter(|&i| model.rest[i as usize].z > LIPS_FRONT_Z && (jaw[i as usize] >= 0.5) == lower).collect();
+        let strip = |centre: f32, lower: bool| -> Vec<u32> {
+            (0..lips.len() as u32).filter(|&i| lips[i as usize] > 0.5 && (model.rest[i as usize].x - centre).abs() < LIPS_STRIP_HALF_WIDTH && (jaw[i as usize] >= 0.5) == lower).collect()
+        };
+        let lips_strips = LIPS_STRIPS.iter().map(|&x| [strip(x, false), strip(x, true)]).filter(|[u, l]| !u.is_empty() && !l.is_empty()).collect();
+        Regions { lips, inside_mouth: load("inside_mouth"), ears: load("ears"), lips_edges: [front(false), front(true)], lips_strips, lips_midline }
     })
 }
 
 /// The share of the light that reaches a point of the mouth's inside at rest depth `z` with
-/// the lips `lips_forward` ([`lips_forward`]) in front of their rest: less the deeper it lies
-/// behind the lips' opening as it stands now, and all of it a centimetre out in front of it
-/// (the tongue put out over the lower lip, AU19, is lit as the lips are).
-fn light_inside_mouth(z: f32, lips_forward: f32) -> f32 {
+/// the lips `lips_forward` ([`lips_forward`]) in front of their rest and letting `through` of
+/// the light in between them ([`light_through_lips`]): less the deeper it lies behind the lips'
+/// opening as it stands now, and all of it a centimetre out in front of it (the tongue put out
+/// over the lower lip, AU19, is lit as the lips are).
+fn light_inside_mouth(z: f32, lips_forward: f32, through: f32) -> f32 {
     let behind = MOUTH_OPENING_Z + lips_forward - z;
+    let opening = MOUTH_OPENING_LIGHT * through;
     if behind >= 0.0 {
-        MOUTH_OPENING_LIGHT * (-behind * 6.0).exp()
+        opening * (-behind * 6.0).exp()
     } else {
-        MOUTH_OPENING_LIGHT + (1.0 - MOUTH_OPENING_LIGHT) * smoothstep(0.0, 0.1, -behind)
+        opening + (1.0 - opening) * smoothstep(0.0, 0.1, -behind)
     }
+}
+
+/// The share of the light the lips let into the mouth when they stand `gap` apart (decimetres,
+/// [`lips_apart`]): all of it once they are parted by [`LIPS_OPEN_GAP`], and only
+/// [`LIPS_CLOSED_LIGHT`] through the slit of lips at rest (the CC0 head's lips rest about half a
+/// millimetre apart: a sliver of teeth lit as at the front of a smile read as lips parted).
+fn light_through_lips(gap: f32) -> f32 {
+    LIPS_CLOSED_LIGHT + (1.0 - LIPS_CLOSED_LIGHT) * smoothstep(LIPS_CLOSED_GAP, LIPS_OPEN_GAP, gap)
+}
+
+/// Lips this far apart (decimetres) or less let only [`LIPS_CLOSED_LIGHT`] into the mouth.
+const LIPS_CLOSED_GAP: f32 = 0.008;
+
+/// Lips this far apart (decimetres) or more let all the light the opening gets into the mouth.
+const LIPS_OPEN_GAP: f32 = 0.04;
+
+/// The share of the light that gets through the slit between lips at rest.
+const LIPS_CLOSED_LIGHT: f32 = 0.15;
+
+/// The front half of the lips' red lies forward of this depth at rest (z, decimetres); their
+/// inner skin behind it.
+const LIPS_FRONT_Z: f32 = 1.52;
+
+/// Where the strips of the lips' red lie across the mouth (rest x, decimetres): the midline, and
+/// over the lateral incisors, the canines and the premolars on each side.
+const LIPS_STRIPS: [f32; 7] = [-0.18, -0.12, -0.06, 0.0, 0.06, 0.12, 0.18];
+
+/// Half the width of a strip of the lips (decimetres).
+const LIPS_STRIP_HALF_WIDTH: f32 = 0.03;
+
+/// How far apart (decimetres) the lips stand now, in the head's own frame: on the midline, the
+/// lowest point of the upper lip's front above the highest of the lower lip's (negative where
+/// they press over each other), or, where a lip has lifted off the teeth beside the midline
+/// more (one side's AU10), the rest gap on the midline and how much farther apart the strip's
+/// upper and lower lip have moved, on average, than they rest.
+fn lips_apart(model: &FaceModel, posed: &Posed) -> f32 {
+    let regions = regions(model);
+    let [upper, lower] = &regions.lips_edges;
+    let rest_y = |i: &u32| posed.neutral[*i as usize].y;
+    let now_y = |i: &u32| rest_y(i) + moved_in_head(posed, *i as usize).y;
+    let gap = |y: &dyn Fn(&u32) -> f32| upper.iter().map(y).fold(f32::INFINITY, f32::min) - lower.iter().map(y).fold(f32::NEG_INFINITY, f32::max);
+    let (midline_now, midline_rest) = (gap(&now_y), gap(&rest_y));
+    if !midline_now.is_finite() {
+        return LIPS_OPEN_GAP;
+    }
+    let mean_raise = |vertices: &[u32]| vertices.iter().map(|&i| moved_in_head(posed, i as usize).y).sum::<f32>() / vertices.len() as f32;
+    let parted = regions.lips_strips.iter().map(|[u, l]| mean_raise(u) - mean_raise(l)).fold(0.0, f32::max);
+    midline_now.max(midline_rest + parted)
 }
 
 /// Where the mouth's opening lies between the lips at rest (rest z, decimetres): the inside of
@@ -738,6 +820,8 @@ pub struct FaceShader<'a> {
     skin_bounce: Vec3,
     /// How far the lips stand forward of their rest now ([`lips_forward`]).
     lips_forward: f32,
+    /// The share of the light the lips let into the mouth now ([`light_through_lips`]).
+    through_lips: f32,
 }
 
 /// The colour of the light that reaches a cast shadow on the skin of colour `skin` (linear):
@@ -763,7 +847,7 @@ impl<'a> FaceShader<'a> {
         let backdrop_kind = look.backdrop;
         let hairline = Hairline::of(identity);
         let (combed, scalp_pigment) = (super::hair::lies_combed(identity), hair_pigment(identity, identity.hair_grey));
-        FaceShader { maps, key_light, body, body_key_light, hair, hair_seen: &[], hair_key_light, shadow: None, relief, aged_relief, model, posed, identity, hairline, combed, scalp_pigment, lighting, backdrop_kind, backdrop, eye, pixel_angle, skin_bounce: skin_bounce(identity.skin), lips_forward: lips_forward(model, posed) }
+        FaceShader { maps, key_light, body, body_key_light, hair, hair_seen: &[], hair_key_light, shadow: None, relief, aged_relief, model, posed, identity, hairline, combed, scalp_pigment, lighting, backdrop_kind, backdrop, eye, pixel_angle, skin_bounce: skin_bounce(identity.skin), lips_forward: lips_forward(model, posed), through_lips: light_through_lips(lips_apart(model, posed)) }
     }
 
     /// Casts the key light's shadows from `shadow`, looked up once per vertex (offset along the
@@ -1243,9 +1327,10 @@ impl<'a> FaceShader<'a> {
 
     /// Inside the mouth little light arrives: everything dimmed, and more with depth behind
     /// the lips as they stand now (`rest`: the point in rest space): lips pushed forward in a
-    /// pucker leave the teeth deeper in the mouth's shadow.
+    /// pucker leave the teeth deeper in the mouth's shadow, and lips at rest let little light
+    /// in through the slit between them.
     fn inside_mouth(&self, rest: Vec3) -> f32 {
-        light_inside_mouth(rest.z, self.lips_forward)
+        light_inside_mouth(rest.z, self.lips_forward, self.through_lips)
     }
 
     /// Teeth: enamel is translucent, so a tooth in the lip's shadow still glows with the light
@@ -2694,7 +2779,7 @@ mod tests {
         let teeth = model.part(Part::TeethUpper).vertices.clone();
         let front = teeth.map(|i| model.rest[i as usize].z).fold(f32::MIN, f32::max);
         let tongue = model.part(Part::Tongue).vertices.clone();
-        let at_rest = light_inside_mouth(front, 0.0);
+        let at_rest = light_inside_mouth(front, 0.0, 1.0);
         crate::engine::identity::assert_on_the_eight(|identity| {
             let posed = |expression: &str| {
                 let expression = crate::facs::Catalog::built_in().parse(expression).unwrap();
@@ -2704,25 +2789,54 @@ mod tests {
             let mut failures = Vec::new();
             for pushed in ["18E", "22E"] {
                 let ahead = forward(pushed);
-                let light = light_inside_mouth(front, ahead);
+                let light = light_inside_mouth(front, ahead, 1.0);
                 if ahead < 0.05 || light > 0.6 * at_rest {
                     failures.push(format!("{pushed}: lips {ahead:.3} dm forward, teeth lit {light:.3} against {at_rest:.3} at rest"));
                 }
             }
             let smile = forward("6+12+25");
-            if smile > 0.01 || light_inside_mouth(front, smile) < 0.95 * at_rest {
+            if smile > 0.01 || light_inside_mouth(front, smile, 1.0) < 0.95 * at_rest {
                 failures.push(format!("6+12+25: lips {smile:.3} dm forward"));
             }
             for (expression, least, most) in [("19E", 1.0, 1.0), ("0", 0.0, 0.5)] {
                 let posed = posed(expression);
                 let tip = tongue.clone().map(|v| model.rest[v as usize].z + moved_in_head(&posed, v as usize).z).fold(f32::MIN, f32::max);
-                let light = light_inside_mouth(tip, lips_forward(model, &posed));
+                let light = light_inside_mouth(tip, lips_forward(model, &posed), 1.0);
                 if !(least..=most).contains(&light) {
                     failures.push(format!("{expression}: the tongue's tip at rest z {tip:.3} lit {light:.3}"));
                 }
             }
             (!failures.is_empty()).then(|| failures.join("; "))
         });
+    }
+
+    /// The lips let light into the mouth as they part: lips at rest let in at most 0.4 of it on
+    /// every shipped person (they rest 0.5–1.8 mm apart; a sliver of teeth as bright as at the
+    /// front of a smile read as lips parted, AU25), AU25 lets in more at each level from A to E,
+    /// and a smile with the lips parted (6+12+25), AU25 at D and E, AU26 and AU27 at E and one
+    /// side's AU10 at E (the upper lip lifted off the teeth beside the midline; measured on the
+    /// midline alone, the teeth under it were dark and MediaPipe's mouthUpperUp fell from about
+    /// +0.6 to +0.05) let in all of it, so the teeth of a broad smile are lit as before.
+    #[test]
+    fn the_lips_let_light_into_the_mouth_as_they_part() {
+        assert_eq!(light_through_lips(0.0), LIPS_CLOSED_LIGHT);
+        assert_eq!(light_through_lips(-0.02), LIPS_CLOSED_LIGHT);
+        assert_eq!(light_through_lips(LIPS_OPEN_GAP), 1.0);
+        let model = FaceModel::embedded();
+        let mut failures = Vec::new();
+        for identity in crate::engine::identity::IdentityTable::built_in().iter() {
+            let through = |expression: &str| {
+                let expression = crate::facs::Catalog::built_in().parse(expression).unwrap();
+                light_through_lips(lips_apart(model, &crate::engine::pose_expression(&expression, identity).unwrap()))
+            };
+            let rest = through("0");
+            let ramp: Vec<f32> = ["25A", "25B", "25C", "25D", "25E"].map(through).into();
+            let open = ["6+12+25", "25D", "25E", "26E", "27E", "L10E", "R10E"].map(through);
+            if rest > 0.4 || ramp.windows(2).any(|w| w[1] < w[0]) || ramp[0] < rest || open.iter().any(|&o| o < 1.0) {
+                failures.push(format!("{}: rest {rest:.2}, 25A-E {ramp:.2?}, open {open:.2?}", identity.id));
+            }
+        }
+        assert!(failures.is_empty(), "{}", failures.join("\n"));
     }
 
     /// A tooth's face is convex across the arch: at the middle of the left central incisor the
