@@ -49,9 +49,9 @@ struct Regions {
     /// The vertices of the lips' red on the midline, whose movement forward tells how far the
     /// lips stand out in front of the teeth now ([`lips_forward`]).
     lips_midline: Vec<u32>,
-    /// Of those, the front of the upper lip's red and of the lower lip's (the lower lip's is
-    /// the one the jaw-open target lowers, [`jaw_drop`]): how far apart they stand tells how open the mouth is
-    /// ([`lips_apart`]).
+    /// Of those, the front of the upper lip's red and of the lower lip's (the lower lip is the
+    /// one the jaw-open target lowers, [`jaw_drop`]): how far apart they stand tells how open
+    /// the mouth is ([`lips_apart`]).
     lips_edges: [Vec<u32>; 2],
     /// The lips' red in strips across the mouth ([`LIPS_STRIPS`]), each as its upper lip's and
     /// its lower lip's vertices: how far each strip's lips have moved apart tells where a lip
@@ -110,8 +110,9 @@ fn light_inside_mouth(z: f32, lips_forward: f32, through: f32) -> f32 {
 
 /// The share of the light the lips let into the mouth when they stand `gap` apart (decimetres,
 /// [`lips_apart`]): all of it once they are parted by [`LIPS_OPEN_GAP`], and only
-/// [`LIPS_CLOSED_LIGHT`] through the slit of lips at rest (the CC0 head's lips rest about half a
-/// millimetre apart: a sliver of teeth lit as at the front of a smile read as lips parted).
+/// [`LIPS_CLOSED_LIGHT`] through the slit of lips at rest (the lips of the CC0 head and its
+/// people rest half a millimetre to two apart: a sliver of teeth lit as at the front of a smile
+/// read as lips parted).
 fn light_through_lips(gap: f32) -> f32 {
     LIPS_CLOSED_LIGHT + (1.0 - LIPS_CLOSED_LIGHT) * smoothstep(LIPS_CLOSED_GAP, LIPS_OPEN_GAP, gap)
 }
