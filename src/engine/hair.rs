@@ -948,8 +948,8 @@ impl HairModel {
         let combed = combed_lighting(identity, &shape);
         for (n, root) in roots.iter().enumerate() {
             let Some(points) = grow(root, n as u32, identity, &shape, &hair.head) else { continue };
-            let (width, tip_cover) = (shape.width * (0.7 + 0.6 * hash01(n as u32, 7, 1)), shape.tip_cover);
-            let card = Card { width, tip_from: tip_from(n as u32), tip_cover, root: SCALP_ROOT, on_head: true, combed };
+            let width = shape.width * (0.7 + 0.6 * hash01(n as u32, 7, 1));
+            let card = Card { width, tip_from: tip_from(n as u32), tip_cover: shape.tip_cover, root: SCALP_ROOT, on_head: true, combed };
             hair.add_card(&points, root.vertex, card, None);
             hair.strand_tone.push(lock_tone(root.rest, n as u32));
             hair.strand_grey.push(greying(identity.hair_grey, root.rest, n as u32));
